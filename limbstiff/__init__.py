@@ -1,0 +1,33 @@
+"""limbstiff: non-invasive stiffness measurement of limbs and variable-stiffness actuators.
+
+Built on the stiffness observer of Grioli & Bicchi (RSS 2010). The public API is imported
+lazily so that ``import limbstiff`` (and ``limbstiff --help``) stay fast.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+__version__ = "0.1.0"
+
+_API = {
+    "Trial": "limbstiff.trial",
+    "Protocol": "limbstiff.protocol",
+    "load_protocol": "limbstiff.protocol",
+    "read_trial": "limbstiff.io",
+    "write_trial": "limbstiff.io",
+    "LimbstiffError": "limbstiff.errors",
+    "TrialError": "limbstiff.errors",
+    "ProtocolError": "limbstiff.errors",
+    "simulate": "limbstiff.simulate",
+    "analyze": "limbstiff.analysis",
+    "StiffnessResult": "limbstiff.result",
+}
+
+__all__ = ["__version__", *_API]
+
+
+def __getattr__(name: str):
+    if name in _API:
+        return getattr(importlib.import_module(_API[name]), name)
+    raise AttributeError(f"module 'limbstiff' has no attribute {name!r}")

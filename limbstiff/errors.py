@@ -1,0 +1,38 @@
+"""Exceptions that carry a one-line, user-facing message.
+
+Every failure a user can cause (a bad file, a bad protocol, a bad option) is raised as a
+:class:`LimbstiffError`; the command line prints ``str(error)`` on one line and exits non-zero,
+never a traceback.
+"""
+
+from __future__ import annotations
+
+
+class LimbstiffError(Exception):
+    """Base class of the errors limbstiff reports to its users."""
+
+
+class TrialError(LimbstiffError, ValueError):
+    """A trial file that cannot be read or analysed.
+
+    Parameters
+    ----------
+    source : str
+        The file (or trial name) the problem is in.
+    problem : str
+        What is wrong, in one line.
+    """
+
+    def __init__(self, source: str, problem: str):
+        self.source = str(source)
+        self.problem = problem
+        super().__init__(f"{self.source}: {problem}")
+
+
+class ProtocolError(LimbstiffError, ValueError):
+    """A protocol file (or a command-line override) that is not valid."""
+
+    def __init__(self, source: str, problem: str):
+        self.source = str(source)
+        self.problem = problem
+        super().__init__(f"{self.source}: {problem}")

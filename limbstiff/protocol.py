@@ -1,0 +1,294 @@
+"""Protocols: one TOML file per experimental set-up, read into a frozen :class:`Protocol`.
+
+A protocol says how to read a lab's files (column names, units, scale and sign), which
+observer variant and estimator to run, the observer gain and derivative-filter settings, and
+what is known of inertia and damping (fixed values or priors). Every setting left out takes
+the default documented on :class:`Protocol`; ``None`` means "derive it from the data".
+Unknown keys are an error, so a misspelt setting is never silently ignored.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping
+
+from .errors import ProtocolError
+
+QUANTITIES = ("time", "angle", "torque", "elastic_torque", "stiffness_true")
+VARIANTS = ("auto", "external", "direct")
+ESTIMATORS = ("observer",)
+DISCRETISATIONS = ("exact", "euler")
+DERIVATIVES = ("zero-phase", "paper")
+PRIOR_DISTRIBUTIONS = ("lognormal", "halfnormal", "uniform")
+
+
+@dataclass(frozen=True)
+class Column:
+    """How one quantity is found in a file.
+
+    Parameters
+    ----------
+    header : str or None
+        Column header in the file; None keeps the standard ``<quantity>_<unit>`` name.
+    unit : str or None
+        Unit of that column (for example ``"deg"``); None takes it from the header.
+    scale : float
+        Factor applied after unit conversion; ``-1`` flips the sign.
+    """
+
+    header: str | None = None
+    unit: str | None = None
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class Prior:
+    """Prior on a positive mechanical parameter (inertia or damping).
+
+    Parameters
+    ----------
+    distribution : {"lognormal", "halfnormal", "uniform"}
+        Family. ``lognormal`` takes ``median`` and ``sigma`` (sd of the log); ``halfnormal``
+        takes ``scale``; ``uniform`` takes ``low`` and ``high``.
+    median, sigma, scale, low, high : float or None
+        Parameters of that family, in SI units.
+    """
+
+    distribution: str = "halfnormal"
+    median: float | None = None
+    sigma: float | None = None
+    scale: float | None = None
+    low: float | None = None
+    high: float | None = None
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """One experimental set-up. Fields left ``None`` are derived from each trial's data.
+
+    Parameters
+    ----------
+    name : str
+        Short name of the set-up.
+    description : str
+        What the set-up is, for people.
+    source : str or None
+        File the protocol was read from.
+    columns : Mapping[str, Column]
+        How each quantity (``time``, ``angle``, ``torque``, ``elastic_torque``,
+        ``stiffness_true``) is found in the files; quantities not listed use the standard
+        ``<quantity>_<unit>`` headers.
+    variant : {"auto", "external", "direct"}
+        Observer variant; ``auto`` takes ``direct`` when an elastic torque is recorded.
+    estimator : str
+        Estimator name (see :data:`ESTIMATORS`).
+    observer_gain : float or None, 1/rad (1/m)
+        Gain α of update law (7); None derives it from the range of motion.
+    discretisation : {"exact", "euler"}
+        ``exact`` solves the update over each sample (stable for any gain); ``euler`` is the
+        plain forward-Euler step, kept for comparison.
+    derivatives : {"zero-phase", "paper"}
+        ``zero-phase`` filters forwards and backwards then differentiates (offline);
+        ``paper`` is the causal chain of Sec. V: second-order prefilter and the dirty
+        derivative of eq. (11).
+    bandwidth_hz : float or None, Hz
+        Low-pass corner of the zero-phase chain; None derives it from the data.
+    prefilter_time_constant : float, s
+        Time constant of the paper chain's second-order prefilter (0.02 s in Sec. V).
+    dirty_derivative_time_constant : float, s
+        Time constant of the dirty derivative D(s) = s/(1 + τ s) (10⁻⁴ s in eq. 11).
+    sample_period : float or None, s
+        Resample every trial to this period before analysis (0.015 s on the paper's bench).
+    inertia : float or None, kg·m² (kg)
+        Fixed inertia m; None identifies it.
+    damping : float or None, N·m·s/rad (N·s/m)
+        Fixed damping b; None identifies it.
+    inertia_prior, damping_prior : Prior
+        Priors used when m and b are identified.
+    ci_level : float
+        Level of the central credible interval reported as ``lo``/``hi``.
+    """
+
+    name: str = "default"
+    description: str = ""
+    source: str | None = None
+    columns: Mapping[str, Column] = field(default_factory=dict)
+    variant: str = "auto"
+    estimator: str = "observer"
+    observer_gain: float | None = None
+    discretisation: str = "exact"
+    derivatives: str = "zero-phase"
+    bandwidth_hz: float | None = None
+    prefilter_time_constant: float = 0.02
+    dirty_derivative_time_constant: float = 1e-4
+    sample_period: float | None = None
+    inertia: float | None = None
+    damping: float | None = None
+    inertia_prior: Prior = field(default_factory=Prior)
+    damping_prior: Prior = field(default_factory=Prior)
+    ci_level: float = 0.9
+
+    def __post_init__(self):
+        object.__setattr__(self, "columns", MappingProxyType(dict(self.columns)))
+        _check(self)
+
+    def override(self, **changes: Any) -> "Protocol":
+        """Return a copy with the given settings replaced; ``None`` values are ignored.
+
+        This is how command-line options take precedence over the file.
+        """
+        changes = {k: v for k, v in changes.items() if v is not None}
+        return replace(self, **changes) if changes else self
+
+    def to_dict(self) -> dict:
+        """The resolved settings as plain JSON-ready values (for provenance)."""
+        out = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, (Column, Prior)):
+                value = {g.name: getattr(value, g.name) for g in fields(value)}
+            elif f.name == "columns":
+                value = {q: {g.name: getattr(c, g.name) for g in fields(c)} for q, c in value.items()}
+            out[f.name] = value
+        return out
+
+
+# TOML layout: section -> {key in file: Protocol field}
+_SECTIONS = {
+    "observer": {"variant": "variant", "estimator": "estimator", "gain": "observer_gain",
+                 "discretisation": "discretisation"},
+    "signals": {"derivatives": "derivatives", "bandwidth_hz": "bandwidth_hz",
+                "prefilter_time_constant": "prefilter_time_constant",
+                "dirty_derivative_time_constant": "dirty_derivative_time_constant",
+                "sample_period": "sample_period"},
+    "mechanics": {"inertia": "inertia", "damping": "damping"},
+    "report": {"ci_level": "ci_level"},
+}
+_TOP = {"name", "description", "columns", "priors", *_SECTIONS}
+
+
+def load_protocol(path: str | Path) -> Protocol:
+    """Read a protocol TOML file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.toml`` file.
+
+    Returns
+    -------
+    Protocol
+
+    Raises
+    ------
+    ProtocolError
+        If the file cannot be read, is not TOML, has unknown keys or invalid values.
+    """
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))
+    except FileNotFoundError:
+        raise ProtocolError(path, "protocol file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ProtocolError(path, f"cannot read protocol file ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ProtocolError(path, f"not valid TOML ({exc})") from None
+    return protocol_from_dict(raw, source=str(path))
+
+
+def protocol_from_dict(raw: Mapping[str, Any], *, source: str = "<protocol>") -> Protocol:
+    """Build a :class:`Protocol` from the nested mapping of a TOML file (see :func:`load_protocol`)."""
+    unknown = set(raw) - _TOP
+    if unknown:
+        raise ProtocolError(source, f"unknown key(s) {', '.join(sorted(unknown))}")
+    kwargs: dict[str, Any] = {"source": source}
+    for key in ("name", "description"):
+        if key in raw:
+            kwargs[key] = _typed(source, key, raw[key], str)
+    for section, keys in _SECTIONS.items():
+        table = _table(source, section, raw.get(section, {}))
+        unknown = set(table) - set(keys)
+        if unknown:
+            raise ProtocolError(source, f"unknown key(s) in [{section}]: {', '.join(sorted(unknown))}")
+        for key, value in table.items():
+            kwargs[keys[key]] = None if value == "auto" else value
+    columns = {}
+    for quantity, spec in _table(source, "columns", raw.get("columns", {})).items():
+        if quantity not in QUANTITIES:
+            raise ProtocolError(source, f"unknown quantity '{quantity}' in [columns] "
+                                        f"(one of {', '.join(QUANTITIES)})")
+        spec = _table(source, f"columns.{quantity}", spec)
+        unknown = set(spec) - {"header", "unit", "scale"}
+        if unknown:
+            raise ProtocolError(source, f"unknown key(s) in [columns.{quantity}]: {', '.join(sorted(unknown))}")
+        columns[quantity] = Column(header=_typed(source, "header", spec.get("header"), str),
+                                   unit=_typed(source, "unit", spec.get("unit"), str),
+                                   scale=float(_typed(source, "scale", spec.get("scale", 1.0), (int, float))))
+    kwargs["columns"] = columns
+    priors = _table(source, "priors", raw.get("priors", {}))
+    for name, spec in priors.items():
+        if name not in ("inertia", "damping"):
+            raise ProtocolError(source, f"unknown prior '{name}' (inertia or damping)")
+        spec = _table(source, f"priors.{name}", spec)
+        unknown = set(spec) - {f.name for f in fields(Prior)}
+        if unknown:
+            raise ProtocolError(source, f"unknown key(s) in [priors.{name}]: {', '.join(sorted(unknown))}")
+        kwargs[f"{name}_prior"] = Prior(**spec)
+    try:
+        return Protocol(**kwargs)
+    except ProtocolError as exc:
+        raise ProtocolError(source, exc.problem) from None
+    except TypeError as exc:
+        raise ProtocolError(source, f"invalid value ({exc})") from None
+
+
+def _table(source, name, value) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ProtocolError(source, f"'{name}' must be a table")
+    return value
+
+
+def _typed(source, key, value, types):
+    if value is not None and (not isinstance(value, types) or isinstance(value, bool)):
+        raise ProtocolError(source, f"'{key}' has the wrong type ({type(value).__name__})")
+    return value
+
+
+def _positive(p: Protocol, name: str, allow_none: bool = True):
+    value = getattr(p, name)
+    if value is None and allow_none:
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise ProtocolError(p.source or p.name, f"'{name}' must be a positive number, not {value!r}")
+
+
+def _check(p: Protocol) -> None:
+    where = p.source or p.name
+    for name, allowed in (("variant", VARIANTS), ("estimator", ESTIMATORS),
+                          ("discretisation", DISCRETISATIONS), ("derivatives", DERIVATIVES)):
+        if getattr(p, name) not in allowed:
+            raise ProtocolError(where, f"'{name}' must be one of {', '.join(allowed)}, not {getattr(p, name)!r}")
+    for name in ("observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping"):
+        _positive(p, name)
+    for name in ("prefilter_time_constant", "dirty_derivative_time_constant"):
+        _positive(p, name, allow_none=False)
+    if not (isinstance(p.ci_level, float) and 0 < p.ci_level < 1):
+        raise ProtocolError(where, f"'ci_level' must be a number between 0 and 1, not {p.ci_level!r}")
+    for label, prior in (("inertia", p.inertia_prior), ("damping", p.damping_prior)):
+        _check_prior(where, label, prior)
+
+
+def _check_prior(where, label, prior: Prior) -> None:
+    need = {"lognormal": ("median", "sigma"), "halfnormal": (), "uniform": ("low", "high")}
+    if prior.distribution not in need:
+        raise ProtocolError(where, f"prior on {label}: distribution must be one of "
+                                   f"{', '.join(PRIOR_DISTRIBUTIONS)}, not {prior.distribution!r}")
+    for key in need[prior.distribution]:
+        value = getattr(prior, key)
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not value > 0:
+            raise ProtocolError(where, f"prior on {label}: '{key}' must be a positive number")
+    if prior.distribution == "uniform" and not prior.low < prior.high:
+        raise ProtocolError(where, f"prior on {label}: 'low' must be below 'high'")
