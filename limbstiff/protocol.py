@@ -167,6 +167,8 @@ _SECTIONS = {
     "mechanics": {"inertia": "inertia", "damping": "damping"},
     "report": {"ci_level": "ci_level"},
 }
+# Settings for which "auto" (None) means: derive from each trial's data.
+_AUTO = {"observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping"}
 _TOP = {"name", "description", "columns", "priors", *_SECTIONS}
 
 
@@ -214,7 +216,7 @@ def protocol_from_dict(raw: Mapping[str, Any], *, source: str = "<protocol>") ->
         if unknown:
             raise ProtocolError(source, f"unknown key(s) in [{section}]: {', '.join(sorted(unknown))}")
         for key, value in table.items():
-            kwargs[keys[key]] = None if value == "auto" else value
+            kwargs[keys[key]] = None if (value == "auto" and keys[key] in _AUTO) else value
     columns = {}
     for quantity, spec in _table(source, "columns", raw.get("columns", {})).items():
         if quantity not in QUANTITIES:

@@ -1,0 +1,201 @@
+"""Stiffness analysis of one trial: signals → (inertia, damping) → observer → result.
+
+:func:`analyze` is the library call behind ``limbstiff analyze``. It resolves the settings
+(protocol, then explicit arguments), derives what the protocol leaves open from the trial's
+own data (filter bandwidth, observer gain, velocity threshold, observability window, and —
+for the external-torque variant — inertia and damping), runs the estimator and returns a
+:class:`~limbstiff.result.StiffnessResult`. No file I/O here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import identify, observer, signals
+from .errors import TrialError
+from .protocol import Protocol
+from .result import Interval, StiffnessResult
+from .trial import Trial
+
+#: Default memory of the observer, as a fraction of the range of motion: by (8) the estimate
+#: forgets its past as exp(−α·path), so 1/α is the path over which it averages the local slope.
+MEMORY_FRACTION_OF_RANGE = 1 / 20
+#: Speeds below this multiple of the velocity noise level count as no motion.
+VELOCITY_NOISE_MULTIPLE = 3.0
+#: Observability window, in periods of the typical motion frequency.
+OBSERVABLE_PERIODS = 2.0
+#: Identification windows, in periods of the typical motion frequency.
+IDENTIFY_PERIODS = 4.0
+
+
+def derivatives(trial: Trial, protocol: Protocol, order: int = 3):
+    """Filtered signals and their derivatives, the same chain for every channel.
+
+    Parameters
+    ----------
+    trial : Trial
+    protocol : Protocol
+    order : int
+        Highest derivative of the angle wanted (3 for the external variant).
+
+    Returns
+    -------
+    angle : ndarray, shape (order + 1, n)
+        y, ẏ, ÿ, y⃛ (rad, rad/s, rad/s², rad/s³).
+    torques : dict of str to ndarray, shape (2, n)
+        For ``torque`` and ``elastic_torque`` (those recorded): f and ḟ.
+    bandwidth : signals.Bandwidth
+    """
+    fs = trial.fs
+    channels = {"torque": trial.torque, "elastic_torque": trial.elastic_torque}
+    bandwidth = signals.choose_bandwidth(trial.angle, fs)
+    if protocol.derivatives == "paper":
+        kw = dict(prefilter_time_constant=protocol.prefilter_time_constant,
+                  dirty_derivative_time_constant=protocol.dirty_derivative_time_constant)
+        angle = signals.paper_derivatives(trial.angle, fs, order, **kw)
+        torques = {k: signals.paper_derivatives(v, fs, 1, **kw) for k, v in channels.items() if v is not None}
+        cutoff = None
+    else:
+        cutoff = protocol.bandwidth_hz if protocol.bandwidth_hz is not None else bandwidth.cutoff_hz
+        if cutoff is not None and cutoff >= signals.MAX_BANDWIDTH_FRACTION * fs:
+            cutoff = None
+
+        def chain(x, n):
+            return signals.central_derivatives(signals.zero_phase_lowpass(x, fs, cutoff), fs, n)
+
+        angle = chain(trial.angle, order)
+        torques = {k: chain(v, 1) for k, v in channels.items() if v is not None}
+    used = signals.Bandwidth(cutoff_hz=cutoff, signal_edge_hz=bandwidth.signal_edge_hz,
+                             noise_floor=bandwidth.noise_floor,
+                             quantisation_step=bandwidth.quantisation_step)
+    return angle, torques, used
+
+
+def _variant(trial: Trial, protocol: Protocol) -> str:
+    where = trial.source or trial.name
+    variant = trial.variant if protocol.variant == "auto" else protocol.variant
+    if variant == "direct" and trial.elastic_torque is None:
+        raise TrialError(where, "the direct variant needs an elastic torque/force column")
+    if variant == "external" and trial.torque is None:
+        raise TrialError(where, "the external variant needs an external torque/force column")
+    return variant
+
+
+def _mechanics(trial, protocol, angle, torque, window):
+    """Inertia and damping: given, or identified by least squares."""
+    where = trial.source or trial.name
+    details = {}
+    m, b = protocol.inertia, protocol.damping
+    if m is not None and b is not None:
+        return Interval.fixed(m), Interval.fixed(b), {"method": "given"}, []
+    fit = identify.least_squares(torque, angle[0], angle[1], angle[2],
+                                 sample_period=trial.sample_period, window=window)
+    details = {"method": "least_squares", "window_s": fit.window, "condition": fit.condition,
+               "inertia_se": fit.inertia_se, "damping_se": fit.damping_se,
+               "residual_sd": fit.residual_sd}
+    warnings = []
+    if m is None:
+        if not fit.inertia > 0:
+            raise TrialError(where, f"inertia could not be identified (least squares gave {fit.inertia:.3g}); "
+                                    "give it with --inertia or in the protocol")
+        m = fit.inertia
+    if b is None:
+        if not fit.damping > 0:
+            raise TrialError(where, f"damping could not be identified (least squares gave {fit.damping:.3g}); "
+                                    "give it with --damping or in the protocol")
+        b = fit.damping
+    warnings.append("inertia/damping uncertainty is not yet carried into the stiffness band")
+    return Interval.fixed(m), Interval.fixed(b), details, warnings
+
+
+def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | None = None,
+            damping: float | None = None, observer_gain: float | None = None,
+            estimator: str | None = None, seed: int = 0,
+            reference: np.ndarray | None = None) -> StiffnessResult:
+    """Estimate the stiffness course of one trial.
+
+    Parameters
+    ----------
+    trial : Trial
+    protocol : Protocol, optional
+        Settings of the set-up; defaults derive everything from the data.
+    inertia : float, optional, kg·m² (kg)
+        Fixes m (overrides the protocol).
+    damping : float, optional, N·m·s/rad (N·s/m)
+        Fixes b (overrides the protocol).
+    observer_gain : float, optional, 1/rad (1/m)
+        Fixes α (overrides the protocol).
+    estimator : str, optional
+        Estimator name (overrides the protocol).
+    seed : int
+        Seed of every random draw (recorded in the result).
+    reference : ndarray, shape (n,), optional, N·m/rad (N/m)
+        Reference stiffness (for example from ``limbstiff calibrate``); defaults to the
+        trial's ``stiffness_true``.
+
+    Returns
+    -------
+    StiffnessResult
+
+    Raises
+    ------
+    TrialError
+        When the trial cannot give a stiffness (no motion, missing channel…).
+    """
+    protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping,
+                                                 observer_gain=observer_gain, estimator=estimator)
+    where = trial.source or trial.name
+    variant = _variant(trial, protocol)
+    warnings = list(trial.warnings)
+    angle, torques, bandwidth = derivatives(trial, protocol, order=3 if variant == "external" else 1)
+    ts, fs = trial.sample_period, trial.fs
+
+    motion = signals.motion_frequency(angle[0], fs)
+    range_ = float(np.subtract(*np.percentile(angle[0], [97.5, 2.5])))
+    if not range_ > 0:
+        raise TrialError(where, "no motion: the angle does not change")
+    gain = protocol.observer_gain or 1.0 / (MEMORY_FRACTION_OF_RANGE * range_)
+    threshold = VELOCITY_NOISE_MULTIPLE * signals.velocity_noise_level(trial.angle, fs, bandwidth.cutoff_hz)
+
+    m = b = None
+    ident = None
+    if variant == "external":
+        m, b, ident, more = _mechanics(trial, protocol, angle, torques["torque"][0],
+                                       IDENTIFY_PERIODS / motion)
+        warnings += more
+        drive = observer.external_drive(torques["torque"][1], angle[2], angle[3],
+                                        inertia=m.median, damping=b.median)
+    else:
+        drive = torques["elastic_torque"][1]
+
+    stiffness = observer.observe(angle[1], drive, observer_gain=gain, sample_period=ts,
+                                 discretisation=protocol.discretisation, velocity_threshold=threshold)
+    observable = observer.informed(angle[1], observer_gain=gain, sample_period=ts,
+                                   window=OBSERVABLE_PERIODS / motion, velocity_threshold=threshold)
+    if not np.all(np.isfinite(stiffness)):
+        raise TrialError(where, f"the {protocol.discretisation} observer diverged with gain {gain:.3g} "
+                                "(use the exact discretisation or a lower gain)")
+    if observable.mean() < 0.5:
+        warnings.append(f"only {100 * observable.mean():.0f} % of the trial is informed by motion")
+    warnings.append("the stiffness band holds only the inertia/damping uncertainty "
+                    "(the estimator's own is not yet included)")
+
+    if reference is None:
+        reference = trial.stiffness_true
+    details = {
+        "observer_gain": gain,
+        "observer_memory": 1.0 / gain,
+        "discretisation": protocol.discretisation,
+        "derivatives": protocol.derivatives,
+        "bandwidth": bandwidth.to_dict(),
+        "motion_frequency_hz": motion,
+        "range_of_motion": range_,
+        "velocity_threshold": threshold,
+        "observable_window_s": OBSERVABLE_PERIODS / motion,
+        "identification": ident,
+    }
+    return StiffnessResult(
+        trial=trial, variant=variant, estimator=protocol.estimator, stiffness=stiffness,
+        stiffness_lo=stiffness.copy(), stiffness_hi=stiffness.copy(), observable=observable,
+        inertia=m, damping=b, ci_level=protocol.ci_level, seed=seed, settings=protocol.to_dict(),
+        details=details, warnings=tuple(warnings), reference=reference)

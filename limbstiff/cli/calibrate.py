@@ -1,0 +1,32 @@
+"""``limbstiff calibrate``: exponential spring from force–displacement pairs (paper Sec. V)."""
+
+from __future__ import annotations
+
+import click
+
+from .options import fail, reports_errors
+
+
+@click.command("calibrate")
+@click.argument("pairs", type=click.Path(dir_okay=False))
+@click.option("--displacement", "x_col", default=None,
+              help="Column of displacement (default: the position_*/angle_* column).")
+@click.option("--force", "f_col", default=None,
+              help="Column of force (default: the elastic_force_*/force_*/torque_* column).")
+@click.option("--out", "out", type=click.Path(dir_okay=False), default="calibration.json",
+              show_default=True, help="Calibration JSON to write (give it to 'analyze --reference').")
+@reports_errors
+def command(pairs, x_col, f_col, out):
+    """Fit f = a·e^(b·x) to the force–displacement PAIRS (CSV) and write the calibration."""
+    from ..calibrate import fit_exponential_spring
+    from ..io import read_pairs
+    from ..io.outputs import write_json
+
+    x, f = read_pairs(pairs, displacement=x_col, force=f_col)
+    try:
+        cal = fit_exponential_spring(x, f)
+    except ValueError as exc:
+        fail(f"{pairs}: {exc}")
+    write_json(out, cal.to_dict())
+    click.echo(f"a = {cal.a:.6g}, b = {cal.b:.6g}, error margin {100 * cal.error_margin:.1f} % "
+               f"({cal.n_pairs} pairs) -> {out}", err=True)

@@ -1,0 +1,50 @@
+"""Options shared by several commands, defined once, and the error handling they all use."""
+
+from __future__ import annotations
+
+import functools
+import sys
+
+import click
+
+from ..errors import LimbstiffError
+
+EXIT_OK, EXIT_SOME_FAILED, EXIT_USAGE = 0, 1, 2
+
+protocol_option = click.option(
+    "--protocol", "protocol_path", type=click.Path(dir_okay=False), default=None,
+    help="Protocol TOML file describing the set-up (columns, units, settings).")
+seed_option = click.option("--seed", type=int, default=0, show_default=True,
+                           help="Seed of every random draw (recorded in the outputs).")
+
+
+def out_option(default: str):
+    return click.option("--out", "out", type=click.Path(file_okay=False), default=default,
+                        show_default=True, help="Output folder.")
+
+
+def fail(message: str, status: int = EXIT_USAGE):
+    """Print a one-line error on stderr and exit with ``status``."""
+    click.echo(f"limbstiff: error: {' '.join(str(message).split())}", err=True)
+    sys.exit(status)
+
+
+def reports_errors(func):
+    """Turn a :class:`LimbstiffError` raised by a command into a one-line error and exit 2."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        try:
+            return func(*args, **kwargs)
+        except LimbstiffError as exc:
+            fail(str(exc))
+        except KeyboardInterrupt:
+            fail("interrupted", 130)
+
+    return wrapper
+
+
+def load_protocol_or_default(path):
+    """The protocol of ``--protocol``, or the default one."""
+    from ..protocol import Protocol, load_protocol
+    return load_protocol(path) if path else Protocol()
