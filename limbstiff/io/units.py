@@ -1,0 +1,340 @@
+"""Units of trial columns: the unit table, standard headers, column resolution, SI conversion.
+
+Pure functions, no I/O. A standard header is ``<quantity>_<unit>`` (``time_ms``,
+``angle_deg``, ``stiffness_true_Nm_per_rad``); :func:`parse_standard_header` splits it,
+:func:`to_si` converts a column to SI units. Only the units listed in :data:`UNITS` are
+accepted: there is no guessing, so a misspelt unit is an error rather than a wrong number.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from types import MappingProxyType
+from typing import Mapping, NamedTuple
+
+import numpy as np
+
+from ..errors import TrialError
+
+
+class Unit(NamedTuple):
+    """One accepted unit.
+
+    Parameters
+    ----------
+    dimension : str
+        ``time``, ``angle``, ``length``, ``torque``, ``force``, ``rotational_stiffness`` or
+        ``translational_stiffness``.
+    factor : float
+        Multiply a value in this unit by ``factor`` to get SI units.
+    """
+
+    dimension: str
+    factor: float
+
+
+_DEG = math.pi / 180.0
+
+#: Every accepted unit, by the spelling used in headers and protocols (case-sensitive:
+#: ``mN`` and ``MN`` differ). The first spelling of each dimension is its SI unit.
+UNITS: Mapping[str, Unit] = MappingProxyType({
+    # time
+    "s": Unit("time", 1.0), "ms": Unit("time", 1e-3), "us": Unit("time", 1e-6),
+    # angle
+    "rad": Unit("angle", 1.0), "deg": Unit("angle", _DEG), "degree": Unit("angle", _DEG),
+    "degrees": Unit("angle", _DEG), "mrad": Unit("angle", 1e-3),
+    # length
+    "m": Unit("length", 1.0), "mm": Unit("length", 1e-3), "cm": Unit("length", 1e-2),
+    # torque
+    "Nm": Unit("torque", 1.0), "N.m": Unit("torque", 1.0), "N·m": Unit("torque", 1.0),
+    "N*m": Unit("torque", 1.0), "Nmm": Unit("torque", 1e-3), "N.mm": Unit("torque", 1e-3),
+    "N·mm": Unit("torque", 1e-3), "mNm": Unit("torque", 1e-3),
+    # force
+    "N": Unit("force", 1.0), "mN": Unit("force", 1e-3), "kN": Unit("force", 1e3),
+    # stiffness
+    "Nm_per_rad": Unit("rotational_stiffness", 1.0), "Nm/rad": Unit("rotational_stiffness", 1.0),
+    "N·m/rad": Unit("rotational_stiffness", 1.0), "N.m/rad": Unit("rotational_stiffness", 1.0),
+    "Nm_per_deg": Unit("rotational_stiffness", 1.0 / _DEG),
+    "Nm/deg": Unit("rotational_stiffness", 1.0 / _DEG),
+    "N_per_m": Unit("translational_stiffness", 1.0), "N/m": Unit("translational_stiffness", 1.0),
+    "N_per_mm": Unit("translational_stiffness", 1e3), "N/mm": Unit("translational_stiffness", 1e3),
+})
+
+#: Kind of joint implied by a dimension (None: either kind).
+DIMENSION_KIND: Mapping[str, str | None] = MappingProxyType({
+    "time": None, "angle": "rotational", "length": "translational",
+    "torque": "rotational", "force": "translational",
+    "rotational_stiffness": "rotational", "translational_stiffness": "translational",
+})
+
+#: Trial field each dimension may fill.
+FIELD_DIMENSIONS: Mapping[str, tuple[str, ...]] = MappingProxyType({
+    "time": ("time",),
+    "angle": ("angle", "length"),
+    "torque": ("torque", "force"),
+    "elastic_torque": ("torque", "force"),
+    "stiffness_true": ("rotational_stiffness", "translational_stiffness"),
+})
+
+
+#: Trial fields, in the order they are read and written.
+FIELDS = ("time", "angle", "torque", "elastic_torque", "stiffness_true")
+_LABELS = {"time": "time", "angle": "angle/position", "torque": "torque/force",
+           "elastic_torque": "elastic torque/force", "stiffness_true": "reference stiffness"}
+
+
+class ColumnSpec(NamedTuple):
+    """Where one Trial field is read from.
+
+    Parameters
+    ----------
+    field : str
+        Trial field (see :data:`FIELDS`).
+    header : str
+        Column header in the file.
+    index : int
+        0-based column index.
+    unit : str
+        Unit of the values in the file (a key of :data:`UNITS`).
+    scale : float
+        Factor applied after conversion to SI units.
+    """
+
+    field: str
+    header: str
+    index: int
+    unit: str
+    scale: float
+
+
+class Standard(NamedTuple):
+    """What a standard quantity of a header means.
+
+    Parameters
+    ----------
+    field : str
+        :class:`~limbstiff.trial.Trial` field it fills.
+    dimensions : tuple of str
+        Dimensions its unit may have.
+    """
+
+    field: str
+    dimensions: tuple[str, ...]
+
+
+#: Quantities recognised in ``<quantity>_<unit>`` headers without any protocol.
+STANDARD_QUANTITIES: Mapping[str, Standard] = MappingProxyType({
+    "time": Standard("time", ("time",)),
+    "angle": Standard("angle", ("angle",)),
+    "torque": Standard("torque", ("torque",)),
+    "position": Standard("angle", ("length",)),
+    "force": Standard("torque", ("force",)),
+    "elastic_torque": Standard("elastic_torque", ("torque",)),
+    "elastic_force": Standard("elastic_torque", ("force",)),
+    "stiffness_true": Standard("stiffness_true", ("rotational_stiffness", "translational_stiffness")),
+})
+
+# longest first, so that "elastic_torque_Nm" is not read as quantity "elastic"
+_BY_LENGTH = sorted(STANDARD_QUANTITIES, key=len, reverse=True)
+_BRACKETED = re.compile(r"[(\[]\s*([^()\[\]]+?)\s*[)\]]\s*$")
+
+
+def accepted_units(dimensions: tuple[str, ...] | str) -> list[str]:
+    """Spellings of the units of the given dimension(s), in table order.
+
+    Parameters
+    ----------
+    dimensions : str or tuple of str
+        One or more dimensions (see :class:`Unit`).
+
+    Returns
+    -------
+    list of str
+    """
+    if isinstance(dimensions, str):
+        dimensions = (dimensions,)
+    return [name for name, unit in UNITS.items() if unit.dimension in dimensions]
+
+
+def parse_standard_header(header: str) -> tuple[str, str] | None:
+    """Split a standard header ``<quantity>_<unit>``.
+
+    The quantity is matched case-insensitively, longest first; the unit is returned as
+    written (it is not checked here).
+
+    Parameters
+    ----------
+    header : str
+        Column header, for example ``"elastic_torque_Nm"``.
+
+    Returns
+    -------
+    (quantity, unit) or None
+        None when the header does not start with a standard quantity followed by ``_``.
+    """
+    lowered = header.strip().lower()
+    for quantity in _BY_LENGTH:
+        prefix = quantity + "_"
+        if lowered.startswith(prefix) and len(lowered) > len(prefix):
+            return quantity, header.strip()[len(prefix):]
+    return None
+
+
+def unit_in_header(header: str) -> str | None:
+    """Find a known unit written in a free-form header.
+
+    Recognises a trailing ``(unit)`` or ``[unit]`` (``"Torque (Nm)"``) and a trailing
+    ``_unit`` suffix (``"pos1_deg"``, ``"k_Nm_per_rad"``; the longest known suffix wins).
+
+    Parameters
+    ----------
+    header : str
+
+    Returns
+    -------
+    str or None
+        The unit spelling, or None if no known unit is found.
+    """
+    header = header.strip()
+    match = _BRACKETED.search(header)
+    if match and match.group(1) in UNITS:
+        return match.group(1)
+    parts = header.split("_")
+    for start in range(1, len(parts)):
+        candidate = "_".join(parts[start:])
+        if candidate in UNITS:
+            return candidate
+    return None
+
+
+def to_si(values: np.ndarray, unit: str) -> np.ndarray:
+    """Convert values from ``unit`` to SI units.
+
+    Parameters
+    ----------
+    values : array_like, shape (n,)
+        Values in ``unit``.
+    unit : str
+        A key of :data:`UNITS`.
+
+    Returns
+    -------
+    ndarray, shape (n,), float
+        Values in SI units (s, rad, m, N·m, N, N·m/rad, N/m).
+
+    Raises
+    ------
+    KeyError
+        If the unit is not in :data:`UNITS`.
+    """
+    factor = UNITS[unit].factor
+    values = np.asarray(values, dtype=float)
+    return values if factor == 1.0 else values * factor
+
+
+def resolve_columns(where: str, headers: list[str], protocol=None) -> dict[str, ColumnSpec]:
+    """Decide which column gives each :class:`~limbstiff.trial.Trial` field, in which unit.
+
+    A quantity listed in ``protocol.columns`` with a ``header`` is read from that column (its
+    unit from the protocol, else from the header); every other quantity is looked for among
+    the standard ``<quantity>_<unit>`` headers not claimed by the protocol, its unit and scale
+    still overridable by the protocol.
+
+    Parameters
+    ----------
+    where : str
+        File name, for error messages.
+    headers : list of str
+        Column headers of the file, stripped, in order.
+    protocol : Protocol or None
+
+    Returns
+    -------
+    dict of str to ColumnSpec
+        By Trial field; always ``time`` and ``angle``, and ``torque`` or ``elastic_torque``.
+
+    Raises
+    ------
+    TrialError
+        A missing column, an unknown or mismatched unit, two columns for one quantity.
+    """
+    mapped = dict(protocol.columns) if protocol is not None else {}
+    claimed = {spec.header.strip() for spec in mapped.values() if spec.header is not None}
+    found = ", ".join(h for h in headers if h) or "none"
+    columns: dict[str, ColumnSpec] = {}
+    for field in FIELDS:
+        spec = mapped.get(field)
+        label = _LABELS[field]
+        if spec is not None and spec.header is not None:
+            header = spec.header.strip()
+            if header not in headers:
+                raise TrialError(where, f"column '{header}' given by the protocol for {label} is not "
+                                        f"in the file (headers found: {found})")
+            unit = spec.unit or unit_in_header(header)
+            if unit is None:
+                raise TrialError(where, f"column '{header}' ({label}) has no unit in its name; "
+                                        f"give one in the protocol ([columns.{field}] unit)")
+            _check_unit(where, header, unit, label, FIELD_DIMENSIONS[field])
+            other = [_LABELS[c.field] for c in columns.values() if c.header == header]
+            if other:
+                raise TrialError(where, f"column '{header}' is given by the protocol for both "
+                                        f"{other[0]} and {label}")
+            columns[field] = ColumnSpec(field, header, headers.index(header), unit, spec.scale)
+            continue
+        candidates = []
+        for index, header in enumerate(headers):
+            parsed = parse_standard_header(header) if header not in claimed else None
+            if parsed and STANDARD_QUANTITIES[parsed[0]].field == field:
+                candidates.append((index, header, *parsed))
+        if not candidates:
+            continue
+        if len(candidates) > 1:
+            names = " and ".join(f"'{c[1]}'" for c in candidates)
+            if len({c[2] for c in candidates}) > 1:
+                raise TrialError(where, f"mixes rotational and translational columns ({names})")
+            raise TrialError(where, f"more than one {label} column ({names})")
+        index, header, quantity, unit = candidates[0]
+        if spec is not None and spec.unit:
+            unit = spec.unit
+            _check_unit(where, header, unit, label, FIELD_DIMENSIONS[field])
+        else:
+            _check_unit(where, header, unit, quantity.replace("_", " "),
+                        STANDARD_QUANTITIES[quantity].dimensions, hint=True)
+        columns[field] = ColumnSpec(field, header, index, unit, spec.scale if spec is not None else 1.0)
+    if "time" not in columns:
+        raise TrialError(where, f"no time column (expected time_s or time_ms; headers found: {found})")
+    if "angle" not in columns:
+        raise TrialError(where, "no angle or position column (expected angle_rad, angle_deg, "
+                                f"position_m or position_mm; headers found: {found})")
+    if "torque" not in columns and "elastic_torque" not in columns:
+        raise TrialError(where, "no torque or force column (expected torque_Nm, force_N, "
+                                f"elastic_torque_Nm or elastic_force_N; headers found: {found})")
+    return columns
+
+
+def _check_unit(where, header, unit, label, dimensions, hint=False) -> None:
+    accepted = ", ".join(accepted_units(dimensions))
+    if unit not in UNITS:
+        raise TrialError(where, f"column '{header}': unknown unit '{unit}' for {label} (accepted: {accepted})")
+    if UNITS[unit].dimension not in dimensions:
+        more = "; a protocol can map this column to another quantity" if hint else ""
+        raise TrialError(where, f"column '{header}': unit '{unit}' is not a unit of {label} "
+                                f"(accepted: {accepted}{more})")
+
+
+def joint_kind(where: str, columns: dict[str, ColumnSpec]) -> str:
+    """``rotational`` or ``translational``, from the units of the columns.
+
+    Raises
+    ------
+    TrialError
+        If rotational and translational units are mixed.
+    """
+    kinds = {c.header: DIMENSION_KIND[UNITS[c.unit].dimension] for c in columns.values()}
+    rotational = [h for h, k in kinds.items() if k == "rotational"]
+    translational = [h for h, k in kinds.items() if k == "translational"]
+    if rotational and translational:
+        raise TrialError(where, f"mixes rotational and translational columns "
+                                f"('{rotational[0]}' and '{translational[0]}')")
+    return "rotational" if rotational else "translational"

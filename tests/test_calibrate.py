@@ -1,0 +1,63 @@
+"""Spring calibration of Sec. V: regression in semi-logarithmic space."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from limbstiff.calibrate import fit_exponential_spring
+from limbstiff.cli import main
+
+
+def test_exact_pairs_recover_the_spring():
+    x = np.linspace(0.0025, 0.0225, 50)
+    a, b = 0.365, 300.0
+    cal = fit_exponential_spring(x, a * np.exp(b * x))
+    assert cal.a == pytest.approx(a, rel=1e-10) and cal.b == pytest.approx(b, rel=1e-10)
+    assert cal.error_margin < 1e-10
+    np.testing.assert_allclose(cal.stiffness(x), a * b * np.exp(b * x), rtol=1e-9)
+
+
+def test_error_margin_reflects_multiplicative_scatter():
+    # ln f scattered with sd 0.2 gives an RMS log residual ≈ 0.2 (n = 4000: ±2 %) and a
+    # margin e^0.2 − 1 ≈ 22 %, the size the paper reports for its hysteretic bench (25 %).
+    rng = np.random.default_rng(7)
+    x = rng.uniform(0, 0.02, 4000)
+    f = 2.0 * np.exp(150 * x) * np.exp(0.2 * rng.standard_normal(x.size))
+    cal = fit_exponential_spring(x, f)
+    assert cal.rms_log_error == pytest.approx(0.2, rel=0.03)
+    assert cal.error_margin == pytest.approx(np.expm1(0.2), rel=0.04)
+    assert cal.b == pytest.approx(150, rel=0.03)
+
+
+@pytest.mark.parametrize("x, f, phrase", [
+    ([0.0, 1.0], [1.0, 2.0], "at least 3"),
+    ([0.0, 1.0, 2.0], [1.0, -2.0, 3.0], "strictly positive"),
+    ([1.0, 1.0, 1.0], [1.0, 2.0, 3.0], "same displacement"),
+])
+def test_bad_pairs(x, f, phrase):
+    with pytest.raises(ValueError, match=phrase):
+        fit_exponential_spring(np.array(x), np.array(f))
+
+
+def test_calibrate_command(tmp_path):
+    x = np.linspace(2.5, 22.5, 30)                       # mm
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text("# spring: left\nposition_mm,elastic_force_N\n"
+                     + "".join(f"{xi},{0.5 * np.exp(0.1 * xi)}\n" for xi in x))
+    out = tmp_path / "cal.json"
+    res = CliRunner().invoke(main, ["calibrate", str(pairs), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    cal = json.loads(out.read_text())
+    assert cal["b"] == pytest.approx(100.0, rel=1e-9)    # 0.1 /mm = 100 /m
+    assert cal["a"] == pytest.approx(0.5, rel=1e-9)
+
+
+def test_calibrate_command_bad_file(tmp_path):
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text("position_mm,elastic_force_N\n1,2\n2,oops\n3,4\n")
+    res = CliRunner().invoke(main, ["calibrate", str(pairs)])
+    assert res.exit_code == 2
+    assert "pairs.csv" in res.output and "non-numeric" in res.output
+    assert "Traceback" not in res.output
