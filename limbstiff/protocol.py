@@ -12,7 +12,7 @@ from __future__ import annotations
 import tomllib
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
-from types import MappingProxyType
+from .frozen import FrozenDict
 from typing import Any, Mapping
 
 from .errors import ProtocolError
@@ -132,7 +132,7 @@ class Protocol:
     ci_level: float = 0.9
 
     def __post_init__(self):
-        object.__setattr__(self, "columns", MappingProxyType(dict(self.columns)))
+        object.__setattr__(self, "columns", FrozenDict(self.columns))
         _check(self)
 
     def override(self, **changes: Any) -> "Protocol":

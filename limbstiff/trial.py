@@ -15,6 +15,7 @@ from typing import Literal, Mapping
 import numpy as np
 
 from .errors import TrialError
+from .frozen import FrozenDict
 
 Kind = Literal["rotational", "translational"]
 
@@ -105,7 +106,7 @@ class Trial:
             raise TrialError(where, f"time is not strictly increasing at sample {k}")
         if np.ptp(dt) > 1e-6 * np.median(dt):
             raise TrialError(where, "time base is not uniform (resample it first)")
-        object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
+        object.__setattr__(self, "metadata", FrozenDict(self.metadata))
         object.__setattr__(self, "warnings", tuple(self.warnings))
 
     @property

@@ -1,0 +1,135 @@
+"""The command line through click's CliRunner: outputs, exit statuses, one-line errors."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from limbstiff.cli import main
+
+from .conftest import PROTOCOLS
+
+SUMMARY_KEYS = {"trial", "source_sha256", "variant", "fs_hz", "n_samples", "ci_level", "inertia", "damping",
+                "stiffness", "observable_fraction", "warnings", "units", "seed", "software", "metadata"}
+
+
+def run(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def test_help_lists_commands():
+    res = run("--help")
+    assert res.exit_code == 0
+    for name in ("analyze", "simulate", "calibrate"):
+        assert name in res.output
+
+
+def test_analyze_writes_the_contract(trial_file, tmp_path):
+    path = trial_file("t1")
+    out = tmp_path / "out"
+    res = run("analyze", path, "--out", out, "--no-pdf", "--jobs", 1)
+    assert res.exit_code == 0, res.output
+    frame = pd.read_csv(out / "t1" / "stiffness.csv")
+    assert list(frame.columns) == ["time_s", "stiffness", "stiffness_lo", "stiffness_hi", "observable"]
+    assert len(frame) == 4000 and set(frame["observable"].unique()) <= {0, 1}
+    summary = json.loads((out / "t1" / "summary.json").read_text())
+    assert SUMMARY_KEYS <= set(summary)
+    assert summary["variant"] == "external" and summary["metadata"]["subject"] == "S01"
+    # exact, noise-free torque: identified m and b within 2 % of 0.06 and 0.45, and the
+    # median stiffness within 2 % of the true median (15 N·m/rad).
+    assert summary["inertia"]["median"] == pytest.approx(0.06, rel=0.02)
+    assert summary["damping"]["median"] == pytest.approx(0.45, rel=0.02)
+    assert summary["stiffness"]["median"] == pytest.approx(15.0, rel=0.02)
+    table = pd.read_csv(out / "summary.csv")
+    assert list(table["status"]) == ["ok"] and table["stiffness_median"][0] == pytest.approx(15.0, rel=0.02)
+
+
+def test_fixed_inertia_and_damping_are_used(trial_file, tmp_path):
+    out = tmp_path / "out"
+    res = run("analyze", trial_file("t1"), "--out", out, "--no-pdf", "--inertia", 0.07, "--damping", 0.5)
+    assert res.exit_code == 0, res.output
+    summary = json.loads((out / "t1" / "summary.json").read_text())
+    assert summary["inertia"] == {"median": 0.07, "lo": 0.07, "hi": 0.07}
+    assert summary["damping"]["median"] == 0.5
+
+
+def test_one_corrupt_file_among_good_ones(trial_file, tmp_path):
+    folder = tmp_path / "trials"
+    folder.mkdir()
+    trial_file("a", folder=folder)
+    trial_file("c", folder=folder)
+    (folder / "b.csv").write_text("time_s,angle_rad,torque_Nm\n0,0,0\n0.001,abc,0\n")
+    out = tmp_path / "out"
+    res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1)
+    assert res.exit_code == 1
+    table = pd.read_csv(out / "summary.csv", keep_default_na=False)
+    assert list(table["trial"]) == ["a", "b", "c"]
+    assert list(table["status"]) == ["ok", "failed", "ok"]
+    assert "b.csv" in table["error"][1] and "non-numeric value 'abc'" in table["error"][1]
+    assert (out / "a" / "summary.json").exists() and (out / "c" / "summary.json").exists()
+    assert "Traceback" not in res.output
+
+
+def test_nothing_to_do_is_exit_2(tmp_path):
+    res = run("analyze", tmp_path / "missing", "--out", tmp_path / "out")
+    assert res.exit_code == 2
+    assert "missing: no such file or folder" in res.output and "Traceback" not in res.output
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert run("analyze", empty).exit_code == 2
+
+
+def test_bad_protocol_is_exit_2(trial_file, tmp_path):
+    proto = tmp_path / "p.toml"
+    proto.write_text("[observer]\ngain = 'fast'\n")
+    res = run("analyze", trial_file("t1"), "--protocol", proto, "--out", tmp_path / "out")
+    assert res.exit_code == 2
+    assert "p.toml" in res.output and res.output.count("\n") == 1
+
+
+def test_outputs_are_not_overwritten_without_overwrite(trial_file, tmp_path):
+    path, out = trial_file("t1"), tmp_path / "out"
+    assert run("analyze", path, "--out", out, "--no-pdf").exit_code == 0
+    before = (out / "t1" / "summary.json").read_text()
+    res = run("analyze", path, "--out", out, "--no-pdf", "--inertia", 0.1, "--damping", 0.1)
+    assert res.exit_code == 1 and "use --overwrite" in res.output
+    assert (out / "t1" / "summary.json").read_text() == before
+    res = run("analyze", path, "--out", out, "--no-pdf", "--inertia", 0.1, "--damping", 0.1, "--overwrite")
+    assert res.exit_code == 0
+    assert json.loads((out / "t1" / "summary.json").read_text())["inertia"]["median"] == 0.1
+
+
+def test_stem_collisions_keep_both(trial_file, tmp_path):
+    for sub in ("day1", "day2"):
+        (tmp_path / sub).mkdir()
+        trial_file("trial", folder=tmp_path / sub)
+    out = tmp_path / "out"
+    res = run("analyze", tmp_path / "day1", tmp_path / "day2", "--out", out, "--no-pdf")
+    assert res.exit_code == 0, res.output
+    assert (out / "trial" / "summary.json").exists() and (out / "trial-2" / "summary.json").exists()
+    assert "also named 'trial'" in res.output
+
+
+def test_report_pdf_is_written(trial_file, tmp_path):
+    out = tmp_path / "out"
+    res = run("analyze", trial_file("t1", duration=3.0), "--out", out)
+    assert res.exit_code == 0, res.output
+    pdf = (out / "t1" / "report.pdf").read_bytes()
+    assert pdf.startswith(b"%PDF") and b"limbstiff" in pdf
+
+
+def test_reklab_protocol_on_real_file(tmp_path):
+    from .conftest import REAL
+    if not REAL.exists():
+        pytest.skip("real ankle data not present")
+    out = tmp_path / "out"
+    res = run("analyze", REAL / "z_df.csv", "--protocol", PROTOCOLS / "reklab-ankle.toml", "--out", out,
+              "--no-pdf")
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "z_df" / "summary.json").read_text())
+    assert s["fs_hz"] == pytest.approx(1000.0) and s["n_samples"] == 60000
+    # SOURCE.md: I ≈ 0.0166 kg·m², B ≈ 1.35 N·m·s/rad for z_df (±20–30 %)
+    assert 0.010 <= s["inertia"]["median"] <= 0.022
+    assert 1.35 / 2 <= s["damping"]["median"] <= 1.35 * 2
