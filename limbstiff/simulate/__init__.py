@@ -1,0 +1,223 @@
+"""Simulated trials with known stiffness: the paper's examples, human limbs, unmodelled effects.
+
+>>> from limbstiff.simulate import simulate
+>>> trial = simulate("elbow", seed=1, params={"duration": 5}, effect="reflex")
+
+``simulate`` returns a :class:`~limbstiff.trial.Trial` whose ``stiffness_true`` is the
+stiffness σ = ∂s/∂y of the elastic element along the true motion; ``simulate_with_truth``
+also returns the exact signals (velocity, acceleration, jerk, generalized damping…).
+Every random draw comes from ``numpy.random.default_rng(seed)``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+import numpy as np
+
+from ..trial import Trial
+from .effects import EFFECTS, Effect, Measurement
+from .plants import NO_EFFECT, DynamicsTerm, run
+from .scenarios import SCENARIOS, Scenario, check_common, lookup, merge_params
+
+__all__ = ["simulate", "simulate_with_truth", "SCENARIOS", "EFFECTS", "Scenario", "Effect",
+           "describe_scenarios", "effect_defaults", "trial_scales"]
+
+
+def _fmt(x: float) -> str:
+    return f"{float(x):.12g}"
+
+
+def _lookup_effect(name: str) -> Effect:
+    try:
+        return EFFECTS[name]
+    except KeyError:
+        raise ValueError(f"unknown effect {name!r}; available: " + ", ".join(EFFECTS)) from None
+
+
+def trial_scales(truth: Mapping[str, np.ndarray]) -> dict[str, float]:
+    """Typical sizes of a (nominal) simulated trial, which set the default effect sizes.
+
+    Returns
+    -------
+    dict
+        ``torque``: sd of the external torque (N·m or N); ``velocity``: RMS velocity (rad/s
+        or m/s); ``quartic_velocity``: (mean ẏ⁴)^(1/4), which sizes a torque ∝ ẏ|ẏ|;
+        ``angle``: sd of the angle (rad or m); ``stiffness``: smallest positive stiffness
+        (N·m/rad or N/m).
+    """
+    sigma = np.asarray(truth["stiffness"])
+    positive = sigma[sigma > 0]
+    v = np.asarray(truth["velocity"])
+    scales = {
+        "torque": float(np.std(truth["external_torque"])),
+        "velocity": float(np.sqrt(np.mean(v**2))),
+        "quartic_velocity": float(np.mean(v**4) ** 0.25),
+        "angle": float(np.std(truth["angle"])),
+        "stiffness": float(positive.min()) if positive.size else 0.0,
+    }
+    for key, value in scales.items():
+        if not value > 0:
+            raise ValueError(f"the nominal trial has no {key} to size the effect on; "
+                             "give every effect parameter explicitly")
+    return scales
+
+
+def effect_defaults(effect: str, scenario: str, *, seed: int = 0,
+                    params: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Default parameters of ``effect`` for a scenario (sized on its nominal trial)."""
+    eff = _lookup_effect(effect)
+    sc = lookup(scenario)
+    p = merge_params(f"scenario '{scenario}'", sc.defaults, params)
+    setup = sc.build(p, np.random.default_rng(seed))
+    return eff.defaults_for(trial_scales(run(setup, NO_EFFECT, p["fs"], p["duration"])))
+
+
+def simulate_with_truth(scenario: str, *, seed: int = 0,
+                        params: Mapping[str, float] | None = None, effect: str | None = None,
+                        effect_params: Mapping[str, float] | None = None
+                        ) -> tuple[Trial, dict]:
+    """Simulate a scenario; return the trial and the true signals.
+
+    Parameters are those of :func:`simulate`.
+
+    Returns
+    -------
+    trial : Trial
+    truth : dict
+        Noise-free true signals on ``trial.time``, ndarrays of shape (n,): ``time`` (s),
+        ``angle`` (rad), ``velocity`` (rad/s), ``acceleration`` (rad/s²), ``jerk`` (rad/s³),
+        ``elastic_torque`` (N·m), ``stiffness`` (N·m/rad), ``damping`` (generalized damping
+        ∂d/∂ẏ, N·m·s/rad), ``damping_torque`` (N·m), ``effect_torque`` (N·m, zeros without
+        a dynamics effect), ``external_torque`` (N·m, before measurement effects and noise),
+        ``control`` (the stiffness-regulating input u); floats ``inertia`` (true, kg·m²),
+        ``internal_step`` (s, 0 for a position drive) and ``delay`` (s, delay used by a
+        delayed effect). Translational trials use m, N, N/m, N·s/m, kg.
+    """
+    sc = lookup(scenario)
+    what = f"scenario '{sc.name}'"
+    p = merge_params(what, sc.defaults, params)
+    check_common(what, p)
+    rng = np.random.default_rng(seed)
+    setup = sc.build(p, rng)
+    fs, duration = p["fs"], p["duration"]
+
+    term, measurement, ep, eff = NO_EFFECT, None, {}, None
+    if effect is None:
+        if effect_params:
+            raise ValueError("effect parameters given without an effect")
+    else:
+        eff = _lookup_effect(effect)
+        given = merge_params(f"effect '{eff.name}'", eff.defaults, effect_params)
+        given = {k: given[k] for k in (effect_params or {})}
+        if set(given) >= set(eff.defaults):
+            ep = given
+        elif not eff.scaled:
+            ep = {**eff.defaults, **given}
+        else:
+            nominal = run(setup, NO_EFFECT, fs, duration)
+            ep = {**eff.defaults_for(trial_scales(nominal)), **given}
+        built = eff.build(ep)
+        if isinstance(built, DynamicsTerm):
+            term = built
+        else:
+            measurement = built
+
+    truth = run(setup, term, fs, duration)
+    if term.delay:
+        ep["delay"] = truth["delay"]
+    t = truth["time"]
+    angle = truth["angle"].copy()
+    channels = {"torque": truth["external_torque"].copy()}
+    if setup.record_elastic:
+        channels["elastic_torque"] = truth["elastic_torque"].copy()
+    if isinstance(measurement, Measurement):
+        angle, channels = measurement.apply(t, angle, channels, rng)
+    noise = p["torque_noise"]
+    if noise > 0:
+        channels = {k: x + rng.normal(0.0, noise, size=x.size) for k, x in channels.items()}
+    step = (p.get("position_resolution", 0.0) if sc.kind == "translational"
+            else (2.0 * math.pi / p["encoder_counts"] if p.get("encoder_counts", 0) > 0 else 0.0))
+    if step > 0:
+        angle = np.round(angle / step) * step
+
+    metadata = _metadata(sc, seed, p, eff, ep, setup, term, truth)
+    name = sc.name if eff is None else f"{sc.name}-{eff.name}"
+    trial = Trial(name=name, time=t, angle=angle, torque=channels["torque"],
+                  elastic_torque=channels.get("elastic_torque"),
+                  stiffness_true=truth["stiffness"], kind=sc.kind, metadata=metadata)
+    return trial, truth
+
+
+def simulate(scenario: str, *, seed: int = 0, params: Mapping[str, float] | None = None,
+             effect: str | None = None,
+             effect_params: Mapping[str, float] | None = None) -> Trial:
+    """Simulate a named scenario, optionally with one unmodelled effect.
+
+    Parameters
+    ----------
+    scenario : str
+        A key of ``SCENARIOS`` (see :func:`describe_scenarios`).
+    seed : int
+        Seed of ``numpy.random.default_rng``, the source of every random draw.
+    params : Mapping[str, float], optional
+        Overrides of the scenario's defaults (``fs``, ``duration``, ``torque_noise``…).
+    effect : str, optional
+        A key of ``EFFECTS``.
+    effect_params : Mapping[str, float], optional
+        Overrides of the effect's defaults, which are sized on the scenario's nominal
+        trial (see :func:`effect_defaults`).
+
+    Returns
+    -------
+    Trial
+        Named ``scenario`` or ``scenario-effect``; ``metadata`` records the scenario, seed,
+        effect, every parameter used (``param.*``, ``effect.*``) and the true mechanical
+        values where constant (``true_inertia``, ``true_damping``).
+
+    Raises
+    ------
+    ValueError
+        Unknown scenario, effect or parameter, or an invalid value (one-line message).
+    """
+    return simulate_with_truth(scenario, seed=seed, params=params, effect=effect,
+                               effect_params=effect_params)[0]
+
+
+def _metadata(sc, seed, p, eff, ep, setup, term, truth) -> dict[str, str]:
+    meta = {"generator": "limbstiff.simulate", "scenario": sc.name, "seed": str(seed),
+            "effect": eff.name if eff else "none", "drive":
+            "position" if setup.trajectory is not None else "torque"}
+    if eff is not None:
+        meta["effect_kind"] = eff.kind
+    meta.update({f"param.{k}": _fmt(v) for k, v in p.items()})
+    meta.update({f"effect.{k}": _fmt(v) for k, v in ep.items()})
+    meta.update(setup.metadata)
+    m = setup.joint.inertia
+    meta["nominal_inertia"] = _fmt(m)
+    meta["true_inertia"] = _fmt(m * term.inertia_scale)
+    law = setup.metadata.get("damping_law", "linear")
+    coefficient = float(setup.metadata.get("damping_coefficient", p.get("damping", 0.0)))
+    if law in ("linear", "none"):
+        meta["nominal_damping"] = _fmt(coefficient)
+        meta["true_damping"] = _fmt(coefficient * term.damping_scale)
+    else:
+        meta[f"nominal_{law}_damping"] = _fmt(coefficient)
+        meta[f"true_{law}_damping"] = _fmt(coefficient * term.damping_scale)
+    if truth["internal_step"]:
+        meta["internal_step_s"] = _fmt(truth["internal_step"])
+    return meta
+
+
+def describe_scenarios() -> str:
+    """Text listing every scenario (name, kind, description, defaults) and effect."""
+    lines = ["Scenarios:"]
+    for sc in SCENARIOS.values():
+        lines.append(f"  {sc.name} ({sc.kind}): {sc.description}")
+        lines.append("      " + ", ".join(f"{k}={v:g}" for k, v in sc.defaults.items()))
+    lines.append("Effects (defaults shown for the elbow; sized on each scenario's trial):")
+    for e in EFFECTS.values():
+        lines.append(f"  {e.name} ({e.kind}): "
+                     + ", ".join(f"{k}={v:g}" for k, v in e.defaults.items()))
+    return "\n".join(lines)

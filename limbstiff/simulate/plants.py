@@ -1,0 +1,326 @@
+"""The 1-DOF joint and its two drives.
+
+Equation of motion (Grioli & Bicchi 2010, eq. (6), plus unmodelled terms)::
+
+    m·ÿ + d(ẏ) + s(y, u(t)) + e(y, ẏ, z, ẏ(t − δ)) = τ_ext(t)
+
+with inertia m, damping torque d (generalized damping ∂d/∂ẏ), elastic torque s with
+stiffness σ = ∂s/∂y, a stiffness-regulating input u(t), and an optional effect torque e
+(friction, reflex, hysteresis state z…). Two drives:
+
+* **torque drive** — τ_ext(t) is given and the ODE is integrated by fixed-step RK4 on an
+  internal grid (``internal_step``); delayed velocity is read from the stored history
+  (method of steps, cubic Hermite at half steps);
+* **position drive** — y(t) is imposed (a perturbation platform), its derivatives are
+  analytic, and τ_ext follows from the equation without integration.
+
+Functions written for both floats and arrays take ``lib`` (:mod:`math` or :mod:`numpy`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Joint:
+    """Mechanical model of the joint (nominal values).
+
+    Parameters
+    ----------
+    inertia : float
+        m, kg·m² (kg for translational springs).
+    damping_torque : callable (v, lib) -> N·m
+        d(ẏ).
+    damping_slope : callable (v, lib) -> N·m·s/rad
+        Generalized damping ∂d/∂ẏ.
+    elastic_torque : callable (y, u, lib) -> N·m
+        s(y, u).
+    stiffness : callable (y, u, lib) -> N·m/rad
+        σ = ∂s/∂y, analytic.
+    scalar_torque : callable (y, v, u) -> N·m, optional
+        d(v) + s(y, u) for floats in one call (speeds up the RK4 loop).
+    """
+
+    inertia: float
+    damping_torque: Callable
+    damping_slope: Callable
+    elastic_torque: Callable
+    stiffness: Callable
+    scalar_torque: Callable | None = None
+
+
+@dataclass(frozen=True)
+class Setup:
+    """A scenario made concrete: the joint, its input u(t) and its drive.
+
+    Exactly one of ``external_torque`` (torque drive) and ``trajectory`` (position drive)
+    is given.
+
+    Parameters
+    ----------
+    kind : {"rotational", "translational"}
+    joint : Joint
+    control : callable (t) -> u, ndarray shape (n,)
+        Stiffness-regulating input u(t) (activation, rest length, stiffness…).
+    external_torque : callable (t) -> N·m, optional
+        τ_ext(t) of a torque drive.
+    trajectory : callable (t, derivatives) -> ndarray shape (derivatives + 1, n), optional
+        y(t) and its derivatives for a position drive.
+    initial_angle, initial_velocity : float
+        State at t = 0 of a torque drive (rad, rad/s).
+    max_stiffness, max_damping : float
+        Bounds on |σ| (N·m/rad) and |∂d/∂ẏ| (N·m·s/rad) over the trial, for the step size.
+    record_elastic : bool
+        Whether the elastic torque is recorded (direct observer variant).
+    metadata : Mapping[str, str]
+        Scenario-specific entries for ``Trial.metadata``.
+    """
+
+    kind: str
+    joint: Joint
+    control: Callable
+    external_torque: Callable | None = None
+    trajectory: Callable | None = None
+    initial_angle: float = 0.0
+    initial_velocity: float = 0.0
+    max_stiffness: float = 0.0
+    max_damping: float = 0.0
+    record_elastic: bool = False
+    metadata: Mapping[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class DynamicsTerm:
+    """What an unmodelled effect adds to the equation of motion.
+
+    Parameters
+    ----------
+    torque : callable (y, v, z, vd, lib) -> N·m, optional
+        Effect torque e on the left-hand side (it resists motion when positive with ẏ);
+        ``z`` is the effect's internal state, ``vd`` the velocity ẏ(t − delay).
+    state_rate : callable (y, v, z) -> dz/dt, optional
+        Internal state dynamics, scalar floats (torque drive).
+    state_along : callable (y) -> z, optional
+        The same state integrated along a prescribed angle array (position drive).
+    delay : float
+        δ, s, of the delayed velocity (0 when not used).
+    inertia_scale, damping_scale : float
+        True inertia and damping as multiples of the nominal ones.
+    max_stiffness, max_damping : float
+        What the effect adds to the step-size bounds.
+    """
+
+    torque: Callable | None = None
+    state_rate: Callable | None = None
+    state_along: Callable | None = None
+    delay: float = 0.0
+    inertia_scale: float = 1.0
+    damping_scale: float = 1.0
+    max_stiffness: float = 0.0
+    max_damping: float = 0.0
+
+
+NO_EFFECT = DynamicsTerm()
+
+
+def internal_step(fs: float, inertia: float, max_stiffness: float,
+                  max_damping: float) -> tuple[float, int]:
+    """Internal RK4 step h and substeps per sample.
+
+    h ≤ Ts/4, h ≤ 1/(20·f_n) with f_n = √(σ_max/m)/2π the highest natural frequency, and
+    h·b_max/m ≤ 0.5 (well inside RK4's stability region for the damping).
+
+    Returns
+    -------
+    h : float, s
+    substeps : int
+    """
+    ts = 1.0 / fs
+    bounds = [ts / 4.0]
+    if max_stiffness > 0:
+        bounds.append(2.0 * math.pi / (20.0 * math.sqrt(max_stiffness / inertia)))
+    if max_damping > 0:
+        bounds.append(0.5 * inertia / max_damping)
+    substeps = max(4, math.ceil(ts / min(bounds) - 1e-9))
+    return ts / substeps, substeps
+
+
+def integrate_torque_driven(inertia: float, internal_torque: Callable, external_torque: list,
+                            h: float, n_steps: int, *, initial_angle: float = 0.0,
+                            initial_velocity: float = 0.0, state_rate: Callable | None = None,
+                            delay_steps: int = 0) -> dict[str, np.ndarray]:
+    """Fixed-step RK4 of m·ÿ + f(k, y, ẏ, z, ẏ(t − δ)) = τ_ext.
+
+    Parameters
+    ----------
+    inertia : float
+        m (> 0).
+    internal_torque : callable (k, y, v, z, vd) -> float
+        All torques on the left-hand side except m·ÿ; ``k`` indexes the half-step grid
+        t_k = k·h/2 (so it can read precomputed inputs).
+    external_torque : list of float, length 2·n_steps + 1
+        τ_ext on the half-step grid.
+    h : float
+        Step, s.
+    n_steps : int
+    initial_angle, initial_velocity : float
+    state_rate : callable (y, v, z) -> float, optional
+        Rate of one internal effect state z (z(0) = 0).
+    delay_steps : int
+        δ/h; the velocity before t = 0 is taken as 0 (joint at rest). 0 = no delay.
+
+    Returns
+    -------
+    dict with ndarrays of shape (n_steps + 1,): ``angle``, ``velocity``, ``acceleration``,
+    ``state`` on the grid t_i = i·h.
+    """
+    if inertia <= 0:
+        raise ValueError("a torque drive needs a positive inertia")
+    if delay_steps and delay_steps < 2:
+        raise ValueError("the delay must be at least two internal steps")
+    tau, f, rate = external_torque, internal_torque, state_rate
+    inv_m, hh, h6, h8 = 1.0 / inertia, 0.5 * h, h / 6.0, h / 8.0
+    n1 = n_steps + 1
+    ys, vs, acc, zs = [0.0] * n1, [0.0] * n1, [0.0] * n1, [0.0] * n1
+    y, v, z = float(initial_angle), float(initial_velocity), 0.0
+    D = 2 * int(delay_steps)          # delay in half steps
+    r1 = r2 = r3 = r4 = 0.0
+    vd1 = vd2 = vd4 = 0.0
+
+    def delayed(j: int) -> float:
+        if j < 0:
+            return 0.0
+        p = j >> 1
+        if j & 1 == 0:
+            return vs[p]
+        return 0.5 * (vs[p] + vs[p + 1]) + h8 * (acc[p] - acc[p + 1])
+
+    for i in range(n_steps):
+        k = 2 * i
+        ys[i], vs[i], zs[i] = y, v, z
+        if D:
+            vd1 = delayed(k - D)
+            vd2 = delayed(k + 1 - D)
+            vd4 = delayed(k + 2 - D)
+        a1 = (tau[k] - f(k, y, v, z, vd1)) * inv_m
+        acc[i] = a1
+        if rate is not None:
+            r1 = rate(y, v, z)
+        y2, v2, z2 = y + hh * v, v + hh * a1, z + hh * r1
+        a2 = (tau[k + 1] - f(k + 1, y2, v2, z2, vd2)) * inv_m
+        if rate is not None:
+            r2 = rate(y2, v2, z2)
+        y3, v3, z3 = y + hh * v2, v + hh * a2, z + hh * r2
+        a3 = (tau[k + 1] - f(k + 1, y3, v3, z3, vd2)) * inv_m
+        if rate is not None:
+            r3 = rate(y3, v3, z3)
+        y4, v4, z4 = y + h * v3, v + h * a3, z + h * r3
+        a4 = (tau[k + 2] - f(k + 2, y4, v4, z4, vd4)) * inv_m
+        if rate is not None:
+            r4 = rate(y4, v4, z4)
+        y += h6 * (v + 2.0 * (v2 + v3) + v4)
+        v += h6 * (a1 + 2.0 * (a2 + a3) + a4)
+        z += h6 * (r1 + 2.0 * (r2 + r3) + r4)
+    k = 2 * n_steps
+    ys[n_steps], vs[n_steps], zs[n_steps] = y, v, z
+    acc[n_steps] = (tau[k] - f(k, y, v, z, delayed(k - D) if D else 0.0)) * inv_m
+    return {"angle": np.array(ys), "velocity": np.array(vs),
+            "acceleration": np.array(acc), "state": np.array(zs)}
+
+
+def run(setup: Setup, term: DynamicsTerm, fs: float, duration: float) -> dict:
+    """Simulate a setup with an effect term; true signals at the sample times.
+
+    Parameters
+    ----------
+    setup : Setup
+    term : DynamicsTerm
+        ``NO_EFFECT`` for the nominal model.
+    fs : float
+        Sampling rate, Hz.
+    duration : float
+        s; samples at t = 0, 1/fs, …, duration.
+
+    Returns
+    -------
+    dict
+        ndarrays of shape (n,): ``time``, ``angle``, ``velocity``, ``acceleration``,
+        ``jerk``, ``control``, ``elastic_torque``, ``stiffness``, ``damping`` (generalized,
+        ∂d/∂ẏ), ``damping_torque``, ``effect_torque``, ``external_torque``; floats
+        ``inertia`` (true), ``internal_step`` (s; 0 for a position drive) and ``delay`` (s,
+        the delay actually used).
+    """
+    n = int(round(duration * fs)) + 1
+    t = np.arange(n) / fs
+    joint = setup.joint
+    m = joint.inertia * term.inertia_scale
+    b_scale = term.damping_scale
+    delay = float(term.delay)
+    h = 0.0
+    if setup.trajectory is not None:
+        y, v, a, jerk = setup.trajectory(t, 3)
+        z = term.state_along(y) if term.state_along is not None else np.zeros(n)
+        vd = np.zeros(n)
+        if delay > 0:
+            late = t >= delay
+            vd[late] = setup.trajectory(t[late] - delay, 1)[1]
+    else:
+        h, sub = internal_step(fs, m, setup.max_stiffness + term.max_stiffness,
+                               b_scale * setup.max_damping + term.max_damping)
+        n_steps = (n - 1) * sub
+        t_half = np.arange(2 * n_steps + 1) * (0.5 * h)
+        tau = np.asarray(setup.external_torque(t_half), dtype=float).tolist()
+        u = np.broadcast_to(setup.control(t_half), t_half.shape).tolist()
+        steps = 0
+        if delay > 0:
+            steps = max(2, int(round(delay / h)))
+            delay = steps * h
+        fine = integrate_torque_driven(
+            m, _internal_torque(joint, term, u), tau, h, n_steps,
+            initial_angle=setup.initial_angle, initial_velocity=setup.initial_velocity,
+            state_rate=term.state_rate, delay_steps=steps)
+        y, v, a, z = (fine[key][::sub] for key in ("angle", "velocity", "acceleration", "state"))
+        jerk = np.gradient(fine["acceleration"], h)[::sub]
+        vd = np.zeros(n)
+        if steps:
+            idx = np.arange(n) * sub - steps
+            vd[idx >= 0] = fine["velocity"][idx[idx >= 0]]
+    u = np.broadcast_to(np.asarray(setup.control(t), dtype=float), t.shape).copy()
+    elastic = joint.elastic_torque(y, u, np)
+    damping_torque = b_scale * joint.damping_torque(v, np)
+    effect = (term.torque(y, v, z, vd, np) if term.torque is not None else np.zeros(n))
+    if setup.trajectory is not None:
+        external = m * a + damping_torque + elastic + effect
+    else:
+        external = np.asarray(setup.external_torque(t), dtype=float)
+    return {
+        "time": t, "angle": y, "velocity": v, "acceleration": a, "jerk": jerk, "control": u,
+        "elastic_torque": np.broadcast_to(elastic, t.shape).astype(float),
+        "stiffness": np.broadcast_to(joint.stiffness(y, u, np), t.shape).astype(float),
+        "damping": np.broadcast_to(b_scale * joint.damping_slope(v, np), t.shape).astype(float),
+        "damping_torque": np.broadcast_to(damping_torque, t.shape).astype(float),
+        "effect_torque": np.broadcast_to(effect, t.shape).astype(float),
+        "external_torque": external, "inertia": m, "internal_step": h, "delay": delay,
+    }
+
+
+def _internal_torque(joint: Joint, term: DynamicsTerm, u: list) -> Callable:
+    """Scalar f(k, y, v, z, vd) = b_scale·d(v) + s(y, u_k) + e(y, v, z, vd) for the RK4 loop."""
+    damp, elastic, effect = joint.damping_torque, joint.elastic_torque, term.torque
+    b_scale, lib = term.damping_scale, math
+    fused = joint.scalar_torque
+    if fused is not None and b_scale == 1.0:
+        if effect is None:
+            return lambda k, y, v, z, vd: fused(y, v, u[k])
+        return lambda k, y, v, z, vd: fused(y, v, u[k]) + effect(y, v, z, vd, lib)
+    if effect is None:
+        if b_scale == 1.0:
+            return lambda k, y, v, z, vd: damp(v, lib) + elastic(y, u[k], lib)
+        return lambda k, y, v, z, vd: b_scale * damp(v, lib) + elastic(y, u[k], lib)
+    return lambda k, y, v, z, vd: (b_scale * damp(v, lib) + elastic(y, u[k], lib)
+                                   + effect(y, v, z, vd, lib))
