@@ -71,6 +71,16 @@ def derivatives(trial: Trial, protocol: Protocol, order: int = 3):
     return angle, torques, used
 
 
+def range_of_motion(angle: np.ndarray) -> float:
+    """Span of the central 95 % of the angle, rad (m): robust to spikes and drift ends."""
+    return float(np.subtract(*np.percentile(angle, [97.5, 2.5])))
+
+
+def default_gain(angle: np.ndarray) -> float:
+    """Observer gain α from the data: memory 1/α of :data:`MEMORY_FRACTION_OF_RANGE` of the range, 1/rad (1/m)."""
+    return 1.0 / (MEMORY_FRACTION_OF_RANGE * range_of_motion(angle))
+
+
 def _variant(trial: Trial, protocol: Protocol) -> str:
     where = trial.source or trial.name
     variant = trial.variant if protocol.variant == "auto" else protocol.variant
@@ -151,10 +161,10 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     ts, fs = trial.sample_period, trial.fs
 
     motion = signals.motion_frequency(angle[0], fs)
-    range_ = float(np.subtract(*np.percentile(angle[0], [97.5, 2.5])))
+    range_ = range_of_motion(angle[0])
     if not range_ > 0:
         raise TrialError(where, "no motion: the angle does not change")
-    gain = protocol.observer_gain or 1.0 / (MEMORY_FRACTION_OF_RANGE * range_)
+    gain = protocol.observer_gain or default_gain(angle[0])
     threshold = VELOCITY_NOISE_MULTIPLE * signals.velocity_noise_level(trial.angle, fs, bandwidth.cutoff_hz)
 
     m = b = None
