@@ -34,6 +34,8 @@ SI_UNITS: Mapping[Kind, Mapping[str, str]] = MappingProxyType({
 #: Fewest samples a trial may have: the derivative filters and the observer need a few
 #: cycles of motion to say anything.
 MIN_SAMPLES = 64
+#: Shortest trial, s: under it no motion cycle of a limb fits.
+MIN_DURATION = 0.5
 
 
 @dataclass(frozen=True)

@@ -133,3 +133,49 @@ def test_reklab_protocol_on_real_file(tmp_path):
     # SOURCE.md: I ≈ 0.0166 kg·m², B ≈ 1.35 N·m·s/rad for z_df (±20–30 %)
     assert 0.010 <= s["inertia"]["median"] <= 0.022
     assert 1.35 / 2 <= s["damping"]["median"] <= 1.35 * 2
+
+
+@pytest.mark.parametrize("content, phrase", [
+    ("time_s,angle_rad,torque_Nm\n", "no data rows"),
+    ("time_s,angle_rad\n" + "".join(f"{i / 100},{i % 7}\n" for i in range(200)), "no torque or force column"),
+    ("time_s,angle_grad,torque_Nm\n" + "".join(f"{i / 100},{i % 7},1\n" for i in range(200)), "unknown unit 'grad'"),
+    ("time_s,angle_rad,torque_Nm\n" + "".join(f"{i / 100},{i % 7},nan\n" for i in range(200)), "NaN in column"),
+    ("time_s,angle_rad,torque_Nm\n" + "".join(f"{(i if i != 50 else 49) / 100},{i % 7},1\n" for i in range(200)),
+     "time does not increase"),
+    ("time_s,angle_rad,torque_Nm\n" + "".join(f"{i / 100 + (5 if i > 100 else 0)},{i % 7},1\n" for i in range(200)),
+     "gap in time"),
+    ("time_s,angle_rad,torque_Nm\n" + "".join(f"{i / 100},{i % 7},1\n" for i in range(20)), "trial too short"),
+    ("time_s,angle_rad,torque_Nm\n" + "".join(f"{i / 100},0.3,{i}\n" for i in range(200)), "no motion"),
+])
+def test_bad_input_through_the_cli(tmp_path, content, phrase):
+    bad = tmp_path / "bad.csv"
+    bad.write_text(content)
+    out = tmp_path / "out"
+    res = run("analyze", bad, "--out", out, "--no-pdf")
+    assert res.exit_code == 1                                  # INTERFACE §2: some trials failed
+    assert "Traceback" not in res.output
+    table = pd.read_csv(out / "summary.csv", keep_default_na=False)
+    error = table["error"][0]
+    assert phrase in error and "bad.csv" in error and "\n" not in error
+    assert not (out / "bad" / "stiffness.csv").exists()       # nothing half-written
+
+
+def test_simulate_writes_a_trial_analyze_can_read(tmp_path):
+    path = tmp_path / "elbow.csv"
+    res = run("simulate", "elbow", "--seed", 3, "--set", "duration=4", "--effect", "reflex",
+              "--effect-param", "delay=0.05", "--out", path)
+    assert res.exit_code == 0, res.output
+    from limbstiff.io import read_trial
+    trial = read_trial(path)
+    assert trial.stiffness_true is not None and trial.metadata["effect"] == "reflex"
+    assert float(trial.metadata["effect.delay"]) == pytest.approx(0.05)
+    assert trial.duration == pytest.approx(4.0, abs=0.01)
+
+
+def test_simulate_list_and_bad_scenario(tmp_path):
+    res = run("simulate", "--list")
+    assert res.exit_code == 0 and "paper-exp-spring" in res.output and "coulomb_friction" in res.output
+    res = run("simulate", "knee-of-a-giraffe", "--out", tmp_path / "x.csv")
+    assert res.exit_code == 2 and "unknown scenario" in res.output and "Traceback" not in res.output
+    res = run("simulate", "elbow", "--set", "durashun=3", "--out", tmp_path / "x.csv")
+    assert res.exit_code == 2 and "durashun" in res.output

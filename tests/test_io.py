@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from limbstiff.errors import ProtocolError
+
 from limbstiff.errors import TrialError
 from limbstiff.io import (UNITS, atomic_write_bytes, atomic_write_text, read_trial, sha256_file,
                           write_trial)
@@ -331,8 +333,8 @@ def test_protocol_errors(tmp_path):
                  protocol_from_dict({"columns": {"angle": {"header": "pos1"}}}))
     expect_error(path, "column 'pos1': unit 'N' is not a unit of angle/position (accepted: rad, deg",
                  protocol_from_dict({"columns": {"angle": {"header": "pos1", "unit": "N"}}}))
-    expect_error(path, "column 'pos1': unknown unit 'furlong'",
-                 protocol_from_dict({"columns": {"angle": {"header": "pos1", "unit": "furlong"}}}))
+    with pytest.raises(ProtocolError, match="unknown unit 'furlong' for angle"):   # caught at load
+        protocol_from_dict({"columns": {"angle": {"header": "pos1", "unit": "furlong"}}})
     expect_error(path, "mixes rotational and translational columns",
                  protocol_from_dict({"columns": {"angle": {"header": "pos1", "unit": "mm"}}}))
     expect_error(path, "column 'torque_Nm' is given by the protocol for both torque/force and elastic",

@@ -70,3 +70,9 @@ def test_overrides_take_precedence_and_none_keeps_the_file():
     assert p.observer_gain == 3.0                       # frozen: the original is unchanged
     with pytest.raises(ProtocolError):
         p.override(damping=-1.0)
+
+
+def test_unknown_unit_in_protocol_is_caught_at_load(tmp_path):
+    f = _write(tmp_path, "[columns.angle]\nheader = 'pos'\nunit = 'grad'\n")
+    with pytest.raises(ProtocolError, match="unknown unit 'grad' for angle"):
+        load_protocol(f)

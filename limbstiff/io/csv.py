@@ -18,12 +18,11 @@ import numpy as np
 import pandas as pd
 
 from ..errors import TrialError
-from ..trial import MIN_SAMPLES, Trial
+from ..trial import MIN_DURATION, MIN_SAMPLES, Trial
 from .atomic import atomic_write_text
 from .units import FIELDS, ColumnSpec, joint_kind, resolve_columns, to_si
 
 #: Shortest trial accepted, s.
-MIN_DURATION = 0.5
 #: A time step larger than this many median steps is a gap (an error, never interpolated).
 GAP_FACTOR = 3.0
 #: Steps varying by more than this fraction of the median step are resampled (with a warning);
