@@ -48,7 +48,8 @@ def derivatives(trial: Trial, protocol: Protocol, order: int = 3):
     """
     fs = trial.fs
     channels = {"torque": trial.torque, "elastic_torque": trial.elastic_torque}
-    bandwidth = signals.choose_bandwidth(trial.angle, fs)
+    recorded = trial.torque if trial.torque is not None else trial.elastic_torque
+    bandwidth = signals.choose_bandwidth(trial.angle, fs, torque=recorded)
     if protocol.derivatives == "paper":
         kw = dict(prefilter_time_constant=protocol.prefilter_time_constant,
                   dirty_derivative_time_constant=protocol.dirty_derivative_time_constant)

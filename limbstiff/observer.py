@@ -15,12 +15,14 @@ and r = ḟ). The law is linear in σ̂, so over each sample it is a first-order
   α·|ẏ|·Ts > 2; kept to compare with.
 
 Where ẏ = 0 (or below the velocity noise level) a = 1 and c = 0: the estimate is held.
-Pure numpy: no I/O.
+Pure numpy (the recursion is in :mod:`limbstiff.kernels`): no I/O.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from . import kernels
 
 DISCRETISATIONS = ("exact", "euler")
 
@@ -74,12 +76,8 @@ def linear_recursion(a: np.ndarray, c: np.ndarray, initial: float = 0.0) -> np.n
     -------
     ndarray, shape (n,)
     """
-    out = np.empty(len(a))
-    x = float(initial)
-    for k, (ak, ck) in enumerate(zip(a.tolist(), c.tolist())):
-        x = ak * x + ck
-        out[k] = x
-    return out
+    return kernels.linear_recursion(np.ascontiguousarray(a, dtype=float),
+                                    np.ascontiguousarray(c, dtype=float), float(initial))
 
 
 def observe(velocity: np.ndarray, drive: np.ndarray, *, observer_gain: float, sample_period: float,

@@ -1,0 +1,222 @@
+"""Kalman filter and Rauch–Tung–Striebel smoother for a time-varying stiffness.
+
+State-space model of a recording, one step per (possibly decimated) sample k:
+
+    s[k] = s[k−1] + σ[k−1]·(y[k] − y[k−1]) + w_s      elastic torque: ds = σ·dy
+    σ[k] = σ[k−1] + w_σ                               stiffness: a random walk
+    z[k] = f[k] − m·ÿ[k] − b·ẏ[k] = s[k] + v          torque left to the elastic element
+
+with w_s ~ N(0, Q_s·Δt), w_σ ~ N(0, Q_σ·Δt), v ~ N(0, R). It needs the angle's increments,
+not its third derivative; the stiffness is observed through the motion, so its posterior
+variance grows wherever the joint does not move. The filter's prediction errors give the
+exact Gaussian log-likelihood (prediction-error decomposition) used to fit R, Q_s, Q_σ.
+
+Pure numpy; the recursions live in :mod:`limbstiff.kernels` (compiled when numba is
+installed). No I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import kernels
+
+
+@dataclass(frozen=True)
+class NoiseLevels:
+    """Variances of the state-space model.
+
+    Parameters
+    ----------
+    measurement : float, (N·m)²
+        R: variance of the torque left to the elastic element, per (decimated) sample.
+    torque_walk : float, (N·m)²/s
+        Q_s: intensity of elastic-torque changes not explained by σ·dy (s_u·u̇ of the paper).
+    stiffness_walk : float, (N·m/rad)²/s
+        Q_σ: intensity of the stiffness random walk.
+    """
+
+    measurement: float
+    torque_walk: float
+    stiffness_walk: float
+
+    def to_dict(self) -> dict:
+        return {"measurement": self.measurement, "torque_walk": self.torque_walk,
+                "stiffness_walk": self.stiffness_walk}
+
+
+@dataclass(frozen=True)
+class FilterOutput:
+    """Filtered and predicted moments of the state [s, σ], kept for the smoother.
+
+    Parameters
+    ----------
+    mean, pred_mean : ndarray, shape (n, 2)
+        Filtered and predicted [s, σ].
+    cov, pred_cov : ndarray, shape (n, 3)
+        Filtered and predicted covariance [p11, p12, p22].
+    loglik : float
+        Log-likelihood of the measurements.
+    """
+
+    mean: np.ndarray
+    cov: np.ndarray
+    pred_mean: np.ndarray
+    pred_cov: np.ndarray
+    loglik: float
+
+
+def _args(increments, measured, noise, step, initial_mean, initial_cov):
+    return (np.ascontiguousarray(increments, dtype=float), np.ascontiguousarray(measured, dtype=float),
+            float(noise.measurement), float(noise.torque_walk * step), float(noise.stiffness_walk * step),
+            float(initial_mean[0]), float(initial_mean[1]), *map(float, initial_cov))
+
+
+def kalman_loglik(increments: np.ndarray, measured: np.ndarray, noise: NoiseLevels, *, step: float,
+                  initial_mean: tuple[float, float], initial_cov: tuple[float, float, float]) -> float:
+    """Exact Gaussian log-likelihood of the measurements (prediction-error decomposition).
+
+    Parameters
+    ----------
+    increments : ndarray, shape (n,), rad (m)
+        y[k] − y[k−1] (the first is ignored).
+    measured : ndarray, shape (n,), N·m (N)
+        z[k] = f − m·ÿ − b·ẏ.
+    noise : NoiseLevels
+    step : float, s
+        Time between samples Δt.
+    initial_mean : (s0, σ0)
+    initial_cov : (p11, p12, p22)
+
+    Returns
+    -------
+    float
+    """
+    return float(kernels.kalman_loglik(*_args(increments, measured, noise, step, initial_mean, initial_cov)))
+
+
+def kalman_filter(increments: np.ndarray, measured: np.ndarray, noise: NoiseLevels, *, step: float,
+                  initial_mean: tuple[float, float], initial_cov: tuple[float, float, float]) -> FilterOutput:
+    """Filter pass keeping the moments (arguments as :func:`kalman_loglik`)."""
+    fm, fc, pm, pc, loglik = kernels.kalman_moments(
+        *_args(increments, measured, noise, step, initial_mean, initial_cov))
+    return FilterOutput(fm, fc, pm, pc, float(loglik))
+
+
+def rts_smoother(increments: np.ndarray, out: FilterOutput) -> tuple[np.ndarray, np.ndarray]:
+    """Rauch–Tung–Striebel pass over a :class:`FilterOutput`.
+
+    Returns
+    -------
+    mean : ndarray, shape (n, 2)
+        Smoothed [s, σ].
+    cov : ndarray, shape (n, 3)
+        Smoothed [p11, p12, p22].
+    """
+    return kernels.rts_smoother(np.ascontiguousarray(increments, dtype=float), out.mean, out.cov,
+                                out.pred_mean, out.pred_cov)
+
+
+@dataclass(frozen=True)
+class KalmanStiffness:
+    """Smoothed stiffness and what produced it.
+
+    Parameters
+    ----------
+    stiffness : ndarray, shape (n,), N·m/rad (N/m)
+        Posterior mean at every original sample.
+    variance : ndarray, shape (n,), (N·m/rad)²
+        Posterior variance at every original sample.
+    noise : NoiseLevels
+        The noise levels used (fitted by maximum likelihood unless given).
+    loglik : float
+        Log-likelihood of the (decimated) data under ``noise``.
+    decimation : int
+        Samples of the original rate per filter step.
+    """
+
+    stiffness: np.ndarray
+    variance: np.ndarray
+    noise: NoiseLevels
+    loglik: float
+    decimation: int
+
+
+def _initial_state(angle, measured):
+    """Start from the least-squares line of z on y over the first tenth of the data."""
+    n0 = max(8, len(angle) // 10)
+    y, z = angle[:n0], measured[:n0]
+    yc = y - y.mean()
+    slope = float(yc @ (z - z.mean()) / (yc @ yc)) if yc @ yc > 0 else 0.0
+    resid = z - z.mean() - slope * yc
+    scale = max(abs(slope), float(np.std(measured)) / max(float(np.std(angle)), 1e-300))
+    mean = (float(measured[0]), slope)
+    cov = (float(np.var(resid)) + 1e-12, 0.0, scale ** 2)
+    return mean, cov
+
+
+def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, initial_mean,
+                     initial_cov, guess: NoiseLevels, max_evaluations: int = 300) -> tuple[NoiseLevels, float]:
+    """Maximum-likelihood noise levels (Nelder–Mead over their logarithms).
+
+    Returns
+    -------
+    noise : NoiseLevels
+    loglik : float
+    """
+    from scipy.optimize import minimize
+
+    x0 = np.log([guess.measurement, guess.torque_walk, guess.stiffness_walk])
+
+    def negloglik(x):
+        noise = NoiseLevels(*np.exp(np.clip(x, -300, 300)))
+        value = kalman_loglik(increments, measured, noise, step=step, initial_mean=initial_mean,
+                              initial_cov=initial_cov)
+        return -value if np.isfinite(value) else 1e300
+
+    res = minimize(negloglik, x0, method="Nelder-Mead",
+                   options={"xatol": 0.02, "fatol": 0.01, "maxfev": max_evaluations,
+                            "initial_simplex": x0 + np.vstack([np.zeros(3), 2.0 * np.eye(3)])})
+    return NoiseLevels(*np.exp(res.x)), -float(res.fun)
+
+
+def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: float, decimation: int = 1,
+                     noise: NoiseLevels | None = None) -> KalmanStiffness:
+    """Stiffness course by Kalman filtering and RTS smoothing, noise levels from the data.
+
+    Parameters
+    ----------
+    angle : ndarray, shape (n,), rad (m)
+        Angle, low-passed like the torque.
+    measured : ndarray, shape (n,), N·m (N)
+        z = f − m·ÿ − b·ẏ (external variant) or the elastic torque (direct variant).
+    sample_period : float, s
+    decimation : int
+        Filter on every ``decimation``-th sample (the signals must be low-passed well below
+        the decimated Nyquist frequency); results are interpolated back.
+    noise : NoiseLevels, optional
+        Fixed noise levels; by default fitted by maximum likelihood.
+
+    Returns
+    -------
+    KalmanStiffness
+    """
+    idx = np.arange(0, len(angle), decimation)
+    y, z = angle[idx], measured[idx]
+    increments = np.diff(y, prepend=y[0])
+    step = sample_period * decimation
+    mean0, cov0 = _initial_state(y, z)
+    if noise is None:
+        duration = step * len(y)
+        guess = NoiseLevels(measurement=cov0[0], torque_walk=cov0[0] / duration,
+                            stiffness_walk=(0.1 * abs(mean0[1]) + 1e-12) ** 2)
+        noise, _ = fit_noise_levels(increments, z, step=step, initial_mean=mean0, initial_cov=cov0,
+                                    guess=guess)
+    out = kalman_filter(increments, z, noise, step=step, initial_mean=mean0, initial_cov=cov0)
+    sm, sc = rts_smoother(increments, out)
+    t_all = np.arange(len(angle))
+    return KalmanStiffness(stiffness=np.interp(t_all, idx, sm[:, 1]),
+                           variance=np.interp(t_all, idx, np.maximum(sc[:, 2], 0.0)),
+                           noise=noise, loglik=out.loglik, decimation=decimation)
