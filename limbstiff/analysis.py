@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import identify, observer, signals
+from scipy import stats
+
+from . import estimators, identify, observer, signals
 from .errors import TrialError
 from .protocol import Protocol
 from .result import Interval, StiffnessResult
@@ -92,31 +94,41 @@ def _variant(trial: Trial, protocol: Protocol) -> str:
     return variant
 
 
-def _mechanics(trial, protocol, angle, torque, window):
-    """Inertia and damping: given, or identified by least squares."""
+def _mechanics(trial, protocol, sig, motion, ci_level):
+    """Inertia and damping: given, or identified (least squares, then the state-space model).
+
+    Returns
+    -------
+    inertia, damping : Interval
+    covariance : ndarray, shape (2, 2)
+        Posterior covariance of (m, b); zero where a value is given.
+    details : dict
+    """
     where = trial.source or trial.name
-    details = {}
     m, b = protocol.inertia, protocol.damping
     if m is not None and b is not None:
-        return Interval.fixed(m), Interval.fixed(b), {"method": "given"}, []
-    fit = identify.least_squares(torque, angle[0], angle[1], angle[2],
-                                 sample_period=trial.sample_period, window=window)
-    details = {"method": "least_squares", "window_s": fit.window, "condition": fit.condition,
-               "inertia_se": fit.inertia_se, "damping_se": fit.damping_se,
-               "residual_sd": fit.residual_sd}
-    warnings = []
-    if m is None:
-        if not fit.inertia > 0:
-            raise TrialError(where, f"inertia could not be identified (least squares gave {fit.inertia:.3g}); "
-                                    "give it with --inertia or in the protocol")
-        m = fit.inertia
-    if b is None:
-        if not fit.damping > 0:
-            raise TrialError(where, f"damping could not be identified (least squares gave {fit.damping:.3g}); "
-                                    "give it with --damping or in the protocol")
-        b = fit.damping
-    warnings.append("inertia/damping uncertainty is not yet carried into the stiffness band")
-    return Interval.fixed(m), Interval.fixed(b), details, warnings
+        return Interval.fixed(m), Interval.fixed(b), np.zeros((2, 2)), {"method": "given"}
+    y, f = sig.angle, sig.torque[0]
+    guess = identify.least_squares(f, y[0], y[1], y[2], sample_period=trial.sample_period,
+                                   window=IDENTIFY_PERIODS / motion)
+    fit = identify.kalman_mechanics(y[0], y[1], y[2], f, sample_period=trial.sample_period,
+                                    decimation=estimators.kalman_decimation(sig), guess=guess,
+                                    motion_frequency=motion)
+    details = {"method": "kalman", "least_squares": {"inertia": guess.inertia, "damping": guess.damping,
+                                                      "window_s": guess.window, "condition": guess.condition},
+               "noise_levels": fit.noise.to_dict(), "loglik": fit.loglik, "decimation": fit.decimation}
+    cov = fit.covariance.copy()
+    values = [fit.inertia, fit.damping]
+    for j, (name, given) in enumerate((("inertia", m), ("damping", b))):
+        if given is not None:
+            values[j] = given
+            cov[j, :] = cov[:, j] = 0.0
+        elif not values[j] > 0:
+            raise TrialError(where, f"{name} could not be identified (the state-space fit gave "
+                                    f"{values[j]:.3g}); give it with --{name} or in the protocol")
+    z = float(stats.norm.ppf(0.5 + ci_level / 2))
+    out = [Interval(v, v - z * np.sqrt(cov[j, j]), v + z * np.sqrt(cov[j, j])) for j, v in enumerate(values)]
+    return out[0], out[1], cov, details
 
 
 def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | None = None,
@@ -158,7 +170,7 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     where = trial.source or trial.name
     variant = _variant(trial, protocol)
     warnings = list(trial.warnings)
-    angle, torques, bandwidth = derivatives(trial, protocol, order=3 if variant == "external" else 1)
+    angle, torques, bandwidth = derivatives(trial, protocol)
     ts, fs = trial.sample_period, trial.fs
 
     motion = signals.motion_frequency(angle[0], fs)
@@ -168,19 +180,21 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     gain = protocol.observer_gain or default_gain(angle[0])
     threshold = VELOCITY_NOISE_MULTIPLE * signals.velocity_noise_level(trial.angle, fs, bandwidth.cutoff_hz)
 
-    m = b = None
-    ident = None
+    torque = torques["torque"] if variant == "external" else torques["elastic_torque"]
+    sig = estimators.Signals(angle, torque, ts, bandwidth.cutoff_hz)
+    m = b = ident = None
+    cov = None
+    mech = {}
     if variant == "external":
-        m, b, ident, more = _mechanics(trial, protocol, angle, torques["torque"][0],
-                                       IDENTIFY_PERIODS / motion)
-        warnings += more
-        drive = observer.external_drive(torques["torque"][1], angle[2], angle[3],
-                                        inertia=m.median, damping=b.median)
+        m, b, cov, ident = _mechanics(trial, protocol, sig, motion, protocol.ci_level)
+        mech = {"inertia": m.median, "damping": b.median}
+    if protocol.estimator == "kalman":
+        estimate = estimators.kalman(sig, motion_frequency=motion, **mech)
     else:
-        drive = torques["elastic_torque"][1]
-
-    stiffness = observer.observe(angle[1], drive, observer_gain=gain, sample_period=ts,
-                                 discretisation=protocol.discretisation, velocity_threshold=threshold)
+        estimate = estimators.observers(sig, smoothed=protocol.estimator == "observer-smoothed", gain=gain,
+                                        velocity_threshold=threshold, discretisation=protocol.discretisation,
+                                        **mech)
+    stiffness = estimate.stiffness
     observable = observer.informed(angle[1], observer_gain=gain, sample_period=ts,
                                    window=OBSERVABLE_PERIODS / motion, velocity_threshold=threshold)
     if not np.all(np.isfinite(stiffness)):
@@ -188,8 +202,8 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
                                 "(use the exact discretisation or a lower gain)")
     if observable.mean() < 0.5:
         warnings.append(f"only {100 * observable.mean():.0f} % of the trial is informed by motion")
-    warnings.append("the stiffness band holds only the inertia/damping uncertainty "
-                    "(the estimator's own is not yet included)")
+    z = float(stats.norm.ppf(0.5 + protocol.ci_level / 2))
+    half = z * np.sqrt(np.maximum(estimate.variance_with(cov), 0.0))
 
     if reference is None:
         reference = trial.stiffness_true
@@ -204,9 +218,10 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
         "velocity_threshold": threshold,
         "observable_window_s": OBSERVABLE_PERIODS / motion,
         "identification": ident,
+        "estimator": dict(estimate.details),
     }
     return StiffnessResult(
         trial=trial, variant=variant, estimator=protocol.estimator, stiffness=stiffness,
-        stiffness_lo=stiffness.copy(), stiffness_hi=stiffness.copy(), observable=observable,
+        stiffness_lo=stiffness - half, stiffness_hi=stiffness + half, observable=observable,
         inertia=m, damping=b, ci_level=protocol.ci_level, seed=seed, settings=protocol.to_dict(),
         details=details, warnings=tuple(warnings), reference=reference)

@@ -93,3 +93,101 @@ def least_squares(torque: np.ndarray, angle: np.ndarray, velocity: np.ndarray,
     return LeastSquaresFit(inertia=float(coef[0]), damping=float(coef[1]), inertia_se=float(se[0]),
                            damping_se=float(se[1]), window=length * sample_period,
                            residual_sd=float(np.sqrt(s2)), condition=float(np.linalg.cond(xs)))
+
+
+@dataclass(frozen=True)
+class MechanicsFit:
+    """Inertia and damping identified with the state-space model, noise levels by maximum
+    likelihood.
+
+    Parameters
+    ----------
+    inertia, damping : float
+        Posterior mean of m (kg·m² or kg) and b (N·m·s/rad or N·s/m) at the fitted noise levels.
+    covariance : ndarray, shape (2, 2)
+        Their posterior covariance (Gaussian, exact for the linear model given the noise).
+    noise : smoothing.NoiseLevels
+    loglik : float
+        Log marginal likelihood of the noise levels (m and b integrated out).
+    decimation : int
+    """
+
+    inertia: float
+    damping: float
+    covariance: np.ndarray
+    noise: "smoothing.NoiseLevels"
+    loglik: float
+    decimation: int
+
+
+def state_space_problem(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray,
+                        torque: np.ndarray, *, decimation: int, guess: LeastSquaresFit):
+    """Decimated arrays and the diffuse prior of the four-state model [s, σ, m, b].
+
+    Returns
+    -------
+    arrays : tuple (increments, torque, acceleration, velocity), each shape (n_dec,)
+    x0 : ndarray, shape (4,)
+    p0 : ndarray, shape (4, 4)
+    """
+    idx = np.arange(0, len(angle), decimation)
+    y, f, a, v = angle[idx], torque[idx], acceleration[idx], velocity[idx]
+    z = f - guess.inertia * a - guess.damping * v
+    n0 = max(8, len(y) // 10)
+    yc = y[:n0] - y[:n0].mean()
+    slope = float(yc @ (z[:n0] - z[:n0].mean()) / (yc @ yc)) if yc @ yc > 0 else 0.0
+    stiff_scale = max(abs(slope), float(np.std(z)) / max(float(np.std(y)), 1e-300))
+    # diffuse: ten times the size of each quantity (m and b from least squares)
+    m_sd = 10 * max(abs(guess.inertia), float(np.std(f)) / max(float(np.std(a)), 1e-300) * 0.1)
+    b_sd = 10 * max(abs(guess.damping), float(np.std(f)) / max(float(np.std(v)), 1e-300) * 0.1)
+    x0 = np.array([z[0], slope, guess.inertia, guess.damping])
+    p0 = np.diag([float(np.var(z)) + 1e-12, (10 * stiff_scale) ** 2, m_sd ** 2, b_sd ** 2])
+    return (np.diff(y, prepend=y[0]), f, a, v), x0, p0
+
+
+def kalman_mechanics(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray, torque: np.ndarray,
+                     *, sample_period: float, decimation: int, guess: LeastSquaresFit,
+                     motion_frequency: float, max_evaluations: int = 300) -> MechanicsFit:
+    """Inertia and damping as constant states of the Kalman model, noise levels by ML.
+
+    The filter's prediction-error decomposition is the exact likelihood of the noise levels
+    with m and b integrated out (under a diffuse Gaussian prior centred on the least-squares
+    guess); at its maximum the final filtered state holds the posterior of m and b.
+
+    Parameters
+    ----------
+    angle, velocity, acceleration : ndarray, shape (n,), rad, rad/s, rad/s²
+        Low-passed angle and its derivatives.
+    torque : ndarray, shape (n,), N·m
+        Low-passed external torque.
+    sample_period : float, s
+    decimation : int
+    guess : LeastSquaresFit
+    motion_frequency : float, Hz
+        Typical motion frequency (sets the bounds of :func:`smoothing.noise_bounds`).
+    max_evaluations : int
+        Likelihood evaluations allowed for the noise levels.
+
+    Returns
+    -------
+    MechanicsFit
+    """
+    from . import kernels, smoothing
+
+    (d, f, a, v), x0, p0 = state_space_problem(angle, velocity, acceleration, torque,
+                                               decimation=decimation, guess=guess)
+    step = sample_period * decimation
+
+    def run(logs):
+        r, qs, qk = np.exp(np.clip(logs, -300, 300))
+        return kernels.kalman_mechanics(d, f, a, v, r, qs * step, qk * step, x0, p0)
+
+    resid_var = max(guess.residual_sd ** 2, 1e-300)
+    start = np.log([resid_var, resid_var / (step * len(d)), (0.1 * abs(x0[1]) + 1e-12) ** 2])
+    z = f - guess.inertia * a - guess.damping * v
+    bounds = smoothing.noise_bounds(float(np.var(z)), float(np.sqrt(p0[1, 1])) / 10, motion_frequency)
+    best, _ = smoothing.maximise(lambda logs: run(logs)[0], start, bounds, max_evaluations)
+    loglik, x, p = run(best)
+    return MechanicsFit(inertia=float(x[2]), damping=float(x[3]), covariance=np.array(p[2:, 2:]),
+                        noise=smoothing.NoiseLevels(*np.exp(best)), loglik=float(loglik),
+                        decimation=decimation)

@@ -7,8 +7,8 @@ environment variable ``LIMBSTIFF_NO_JIT=1``, the same source runs in CPython. Th
 (``<kernel>.py_func`` when compiled) is what the tests compare the compiled code against.
 
 Kernels: the first-order linear recursion of the observer, the two-state Kalman filter
-(log-likelihood only, or with its moments) and the Rauch–Tung–Striebel smoother of
-:mod:`limbstiff.smoothing`.
+(log-likelihood only, or with its moments), the Rauch–Tung–Striebel smoother, and the
+four-state filter that carries inertia and damping as constant states (:mod:`limbstiff.smoothing`).
 """
 
 from __future__ import annotations
@@ -160,6 +160,45 @@ def rts_smoother(d, fm, fc, pm, pc):
     return sm, sc
 
 
+def kalman_mechanics(d, f, acc, vel, r, qs, qk, x0, p0):
+    """Filter with inertia and damping as constant states: x = [s, σ, m, b].
+
+    Measurement f[k] = s + m·ÿ[k] + b·ẏ[k] + v. Returns the log-likelihood (the marginal
+    likelihood of the noise levels, m and b integrated over their Gaussian prior x0, p0) and
+    the final filtered mean (4,) and covariance (4, 4) — the posterior of the constant m, b.
+    """
+    n = f.shape[0]
+    x = x0.copy()
+    p = p0.copy()
+    ph = np.empty(4)
+    loglik = 0.0
+    log2pi = math.log(2.0 * math.pi)
+    for i in range(n):
+        if i > 0:
+            di = d[i]
+            x[0] += x[1] * di
+            # P ← F·P·Fᵀ + Q with F = I + d·e0·e1ᵀ
+            for j in range(4):
+                p[0, j] += di * p[1, j]
+            for j in range(4):
+                p[j, 0] += di * p[j, 1]
+            p[0, 0] += qs
+            p[1, 1] += qk
+        h2 = acc[i]
+        h3 = vel[i]
+        for j in range(4):
+            ph[j] = p[j, 0] + p[j, 2] * h2 + p[j, 3] * h3
+        sv = ph[0] + ph[2] * h2 + ph[3] * h3 + r
+        e = f[i] - (x[0] + x[2] * h2 + x[3] * h3)
+        for j in range(4):
+            x[j] += ph[j] * e / sv
+        for j in range(4):
+            for l in range(4):
+                p[j, l] -= ph[j] * ph[l] / sv
+        loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
+    return loglik, x, p
+
+
 def _compile():
     if os.environ.get("LIMBSTIFF_NO_JIT", "") not in ("", "0"):
         return False
@@ -168,7 +207,7 @@ def _compile():
     except ImportError:
         return False
     g = globals()
-    for name in ("linear_recursion", "kalman_loglik", "kalman_moments", "rts_smoother"):
+    for name in ("linear_recursion", "kalman_loglik", "kalman_moments", "rts_smoother", "kalman_mechanics"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True
 

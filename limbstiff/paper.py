@@ -83,7 +83,7 @@ def fig6_exponential_spring(spring: int, *, fs: float = FIG6_FS, duration: float
                             observer_gain: float = FIG6_GAIN) -> Tracking:
     """Fig. 6: the observer on one of the three exponential springs (direct variant)."""
     trial = simulate("paper-exp-spring", params={"spring": spring, "fs": fs, "duration": duration})
-    result = analyze(trial, Protocol(variant="direct"), observer_gain=observer_gain)
+    result = analyze(trial, Protocol(variant="direct", estimator="observer"), observer_gain=observer_gain)
     return Tracking(f"spring {spring}", trial.time, result.stiffness, trial.stiffness_true,
                     result.observable, observer_gain)
 
@@ -109,7 +109,7 @@ def fig9_exponential_vsa(*, fs: float = 1000.0, duration: float = 30.0) -> Track
 def _external(trial, truth, *, inertia, damping, name) -> Tracking:
     # Known m and (generalized) b: the analysis pipeline takes a constant b, so the observer
     # is called directly with the same derivatives and settings the pipeline would use.
-    protocol = Protocol(variant="external", inertia=1.0, damping=1.0)
+    protocol = Protocol(variant="external", estimator="observer", inertia=1.0, damping=1.0)
     result = analyze(trial, protocol)
     angle, torques, _ = derivatives(trial, protocol)
     gain = default_gain(angle[0])

@@ -19,7 +19,7 @@ from .errors import ProtocolError
 
 QUANTITIES = ("time", "angle", "torque", "elastic_torque", "stiffness_true")
 VARIANTS = ("auto", "external", "direct")
-ESTIMATORS = ("observer",)
+ESTIMATORS = ("kalman", "observer-smoothed", "observer")
 DISCRETISATIONS = ("exact", "euler")
 DERIVATIVES = ("zero-phase", "paper")
 PRIOR_DISTRIBUTIONS = ("lognormal", "halfnormal", "uniform")
@@ -117,7 +117,7 @@ class Protocol:
     source: str | None = None
     columns: Mapping[str, Column] = field(default_factory=dict)
     variant: str = "auto"
-    estimator: str = "observer"
+    estimator: str = "kalman"
     observer_gain: float | None = None
     discretisation: str = "exact"
     derivatives: str = "zero-phase"

@@ -135,6 +135,10 @@ class KalmanStiffness:
         Log-likelihood of the (decimated) data under ``noise``.
     decimation : int
         Samples of the original rate per filter step.
+    responses : ndarray, shape (k, n)
+        The smoothed stiffness the same filter gives when fed each extra regressor instead of
+        z (zero initial state): since the smoother is linear in z, these are the derivatives
+        of the stiffness with respect to the coefficients of those regressors in z.
     """
 
     stiffness: np.ndarray
@@ -142,6 +146,7 @@ class KalmanStiffness:
     noise: NoiseLevels
     loglik: float
     decimation: int
+    responses: np.ndarray
 
 
 def _initial_state(angle, measured):
@@ -157,33 +162,64 @@ def _initial_state(angle, measured):
     return mean, cov
 
 
+def noise_bounds(measured_variance: float, stiffness_scale: float, motion_frequency: float) -> list:
+    """Bounds on the logarithms of (R, Q_s, Q_σ) that keep the model observable.
+
+    By bound (9) of the paper a stiffness that changes faster than the motion reveals it
+    cannot be tracked, so within one period of the typical motion the stiffness may not walk
+    by more than its own size, nor the non-elastic torque by more than the torque's spread:
+    Q_σ ≤ σ²·f_motion, Q_s ≤ var(z)·f_motion. The measurement noise lies between 10⁻⁸·var(z)
+    and var(z). Without these bounds, data sampled finely compared with its residual's
+    correlation time admit a degenerate optimum (R → 0, the stiffness jumping to follow every
+    sample).
+    """
+    v = max(measured_variance, 1e-300)
+    k2 = max(stiffness_scale ** 2, 1e-300)
+    return [(np.log(1e-8 * v), np.log(v)), (np.log(1e-12 * v * motion_frequency), np.log(v * motion_frequency)),
+            (np.log(1e-12 * k2 * motion_frequency), np.log(k2 * motion_frequency))]
+
+
+def maximise(loglik, start: np.ndarray, bounds: list, max_evaluations: int = 300):
+    """Nelder–Mead over the log noise levels within ``bounds``; returns (best logs, best value)."""
+    from scipy.optimize import minimize
+
+    lo, hi = np.array(bounds).T
+    start = np.clip(start, lo, hi)
+
+    def negative(x):
+        value = loglik(x)
+        return -value if np.isfinite(value) else 1e300
+
+    simplex = np.clip(start + np.vstack([np.zeros(3), 2.0 * np.eye(3)]), lo, hi)
+    res = minimize(negative, start, method="Nelder-Mead", bounds=bounds,
+                   options={"xatol": 0.02, "fatol": 0.01, "maxfev": max_evaluations, "initial_simplex": simplex})
+    return res.x, -float(res.fun)
+
+
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, initial_mean,
-                     initial_cov, guess: NoiseLevels, max_evaluations: int = 300) -> tuple[NoiseLevels, float]:
-    """Maximum-likelihood noise levels (Nelder–Mead over their logarithms).
+                     initial_cov, guess: NoiseLevels, motion_frequency: float,
+                     max_evaluations: int = 300) -> tuple[NoiseLevels, float]:
+    """Maximum-likelihood noise levels within :func:`noise_bounds`.
 
     Returns
     -------
     noise : NoiseLevels
     loglik : float
     """
-    from scipy.optimize import minimize
-
     x0 = np.log([guess.measurement, guess.torque_walk, guess.stiffness_walk])
+    bounds = noise_bounds(float(np.var(measured)), float(np.sqrt(initial_cov[2])), motion_frequency)
 
-    def negloglik(x):
-        noise = NoiseLevels(*np.exp(np.clip(x, -300, 300)))
-        value = kalman_loglik(increments, measured, noise, step=step, initial_mean=initial_mean,
-                              initial_cov=initial_cov)
-        return -value if np.isfinite(value) else 1e300
+    def loglik(x):
+        return kalman_loglik(increments, measured, NoiseLevels(*np.exp(x)), step=step,
+                             initial_mean=initial_mean, initial_cov=initial_cov)
 
-    res = minimize(negloglik, x0, method="Nelder-Mead",
-                   options={"xatol": 0.02, "fatol": 0.01, "maxfev": max_evaluations,
-                            "initial_simplex": x0 + np.vstack([np.zeros(3), 2.0 * np.eye(3)])})
-    return NoiseLevels(*np.exp(res.x)), -float(res.fun)
+    best, value = maximise(loglik, x0, bounds, max_evaluations)
+    return NoiseLevels(*np.exp(best)), value
 
 
 def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: float, decimation: int = 1,
-                     noise: NoiseLevels | None = None) -> KalmanStiffness:
+                     noise: NoiseLevels | None = None, regressors: tuple = (),
+                     motion_frequency: float | None = None) -> KalmanStiffness:
     """Stiffness course by Kalman filtering and RTS smoothing, noise levels from the data.
 
     Parameters
@@ -198,6 +234,11 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
         the decimated Nyquist frequency); results are interpolated back.
     noise : NoiseLevels, optional
         Fixed noise levels; by default fitted by maximum likelihood.
+    regressors : tuple of ndarray, shape (n,)
+        Signals whose smoothed responses to return (for example ÿ and ẏ: the stiffness
+        then changes by −Δm·response₀ − Δb·response₁ when m and b change).
+    motion_frequency : float, Hz
+        Typical frequency of the motion (needed when ``noise`` is fitted).
 
     Returns
     -------
@@ -213,10 +254,15 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
         guess = NoiseLevels(measurement=cov0[0], torque_walk=cov0[0] / duration,
                             stiffness_walk=(0.1 * abs(mean0[1]) + 1e-12) ** 2)
         noise, _ = fit_noise_levels(increments, z, step=step, initial_mean=mean0, initial_cov=cov0,
-                                    guess=guess)
+                                    guess=guess, motion_frequency=motion_frequency)
     out = kalman_filter(increments, z, noise, step=step, initial_mean=mean0, initial_cov=cov0)
     sm, sc = rts_smoother(increments, out)
     t_all = np.arange(len(angle))
+    responses = np.empty((len(regressors), len(angle)))
+    for j, reg in enumerate(regressors):
+        resp = kalman_filter(increments, np.asarray(reg)[idx], noise, step=step, initial_mean=(0.0, 0.0),
+                             initial_cov=cov0)
+        responses[j] = np.interp(t_all, idx, rts_smoother(increments, resp)[0][:, 1])
     return KalmanStiffness(stiffness=np.interp(t_all, idx, sm[:, 1]),
                            variance=np.interp(t_all, idx, np.maximum(sc[:, 2], 0.0)),
-                           noise=noise, loglik=out.loglik, decimation=decimation)
+                           noise=noise, loglik=out.loglik, decimation=decimation, responses=responses)

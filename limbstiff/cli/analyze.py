@@ -25,7 +25,8 @@ from .options import (EXIT_USAGE, load_protocol_or_default, out_option, protocol
               help="Fix the damping b (N·m·s/rad, or N·s/m) instead of identifying it.")
 @click.option("--gain", "observer_gain", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Fix the observer gain α (1/rad or 1/m) instead of deriving it from the data.")
-@click.option("--estimator", type=click.Choice(["observer"]), default=None, help="Estimator.")
+@click.option("--estimator", type=click.Choice(["kalman", "observer-smoothed", "observer"]), default=None,
+              help="Estimator (default kalman: Kalman filter and RTS smoother).")
 @click.option("--reference", "reference_path", type=click.Path(dir_okay=False), default=None,
               help="Calibration JSON from 'limbstiff calibrate', used as reference stiffness.")
 @click.option("--overwrite", is_flag=True, help="Replace outputs that already exist.")
