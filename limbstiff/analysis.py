@@ -13,7 +13,7 @@ import numpy as np
 
 from scipy import stats
 
-from . import estimators, identify, observer, signals
+from . import estimators, identify, observer, signals, smoothing
 from .errors import TrialError
 from .protocol import Protocol
 from .result import Interval, StiffnessResult
@@ -189,7 +189,9 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
         m, b, cov, ident = _mechanics(trial, protocol, sig, motion, protocol.ci_level)
         mech = {"inertia": m.median, "damping": b.median}
     if protocol.estimator == "kalman":
-        estimate = estimators.kalman(sig, motion_frequency=motion, **mech)
+        # the noise levels fitted with m and b (one likelihood for both), when they were fitted
+        noise = smoothing.NoiseLevels(**ident["noise_levels"]) if ident and "noise_levels" in ident else None
+        estimate = estimators.kalman(sig, motion_frequency=motion, noise=noise, **mech)
     else:
         estimate = estimators.observers(sig, smoothed=protocol.estimator == "observer-smoothed", gain=gain,
                                         velocity_threshold=threshold, discretisation=protocol.discretisation,

@@ -103,7 +103,7 @@ def kalman(sig: Signals, *, motion_frequency: float, inertia: float | None = Non
     decimation = kalman_decimation(sig)
     fit = smoothing.kalman_stiffness(sig.angle[0], measured, sample_period=sig.sample_period,
                                      decimation=decimation, noise=noise, regressors=regressors,
-                                     motion_frequency=motion_frequency)
+                                     motion_frequency=motion_frequency, scale_from=sig.torque[0])
     return Estimate(fit.stiffness, fit.variance, -fit.responses if external else None,
                     {"noise_levels": fit.noise.to_dict(), "decimation": decimation,
                      "loglik": fit.loglik})

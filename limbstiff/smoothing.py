@@ -149,17 +149,23 @@ class KalmanStiffness:
     responses: np.ndarray
 
 
-def _initial_state(angle, measured):
-    """Start from the least-squares line of z on y over the first tenth of the data."""
+def _initial_mean(angle, measured):
+    """[s0, σ0]: the first z and the least-squares slope of z on y over the first tenth.
+
+    Linear in ``measured``, so that the smoother's mean stays linear in z.
+    """
     n0 = max(8, len(angle) // 10)
-    y, z = angle[:n0], measured[:n0]
-    yc = y - y.mean()
-    slope = float(yc @ (z - z.mean()) / (yc @ yc)) if yc @ yc > 0 else 0.0
-    resid = z - z.mean() - slope * yc
-    scale = max(abs(slope), float(np.std(measured)) / max(float(np.std(angle)), 1e-300))
-    mean = (float(measured[0]), slope)
-    cov = (float(np.var(resid)) + 1e-12, 0.0, scale ** 2)
-    return mean, cov
+    yc = angle[:n0] - angle[:n0].mean()
+    yy = float(yc @ yc)
+    slope = float(yc @ (measured[:n0] - measured[:n0].mean()) / yy) if yy > 0 else 0.0
+    return float(measured[0]), slope
+
+
+def _initial_cov(angle, scale_from):
+    """Diffuse initial covariance from the size of a torque signal (not of z, so that it does
+    not change with m and b): var(torque) for s, (sd(torque)/sd(y))² for σ."""
+    v = float(np.var(scale_from)) + 1e-300
+    return (v, 0.0, v / max(float(np.var(angle)), 1e-300))
 
 
 def noise_bounds(measured_variance: float, stiffness_scale: float, motion_frequency: float) -> list:
@@ -180,20 +186,30 @@ def noise_bounds(measured_variance: float, stiffness_scale: float, motion_freque
 
 
 def maximise(loglik, start: np.ndarray, bounds: list, max_evaluations: int = 300):
-    """Nelder–Mead over the log noise levels within ``bounds``; returns (best logs, best value)."""
+    """Nelder–Mead over the log noise levels within ``bounds``; returns (best logs, best value).
+
+    The likelihood can have a second, poorer optimum where the stiffness walks fast and
+    explains the torque sample by sample; the search therefore also starts with the
+    stiffness walk 10³ times smaller and larger, and keeps the best.
+    """
     from scipy.optimize import minimize
 
     lo, hi = np.array(bounds).T
-    start = np.clip(start, lo, hi)
 
     def negative(x):
         value = loglik(x)
         return -value if np.isfinite(value) else 1e300
 
-    simplex = np.clip(start + np.vstack([np.zeros(3), 2.0 * np.eye(3)]), lo, hi)
-    res = minimize(negative, start, method="Nelder-Mead", bounds=bounds,
-                   options={"xatol": 0.02, "fatol": 0.01, "maxfev": max_evaluations, "initial_simplex": simplex})
-    return res.x, -float(res.fun)
+    best = None
+    for shift in (0.0, -3 * np.log(10), 3 * np.log(10)):
+        x0 = np.clip(np.asarray(start, dtype=float) + np.array([0.0, 0.0, shift]), lo, hi)
+        simplex = np.clip(x0 + np.vstack([np.zeros(3), 2.0 * np.eye(3)]), lo, hi)
+        res = minimize(negative, x0, method="Nelder-Mead", bounds=bounds,
+                       options={"xatol": 0.02, "fatol": 0.01, "maxfev": max_evaluations,
+                                "initial_simplex": simplex})
+        if best is None or res.fun < best.fun:
+            best = res
+    return best.x, -float(best.fun)
 
 
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, initial_mean,
@@ -219,7 +235,8 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
 
 def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: float, decimation: int = 1,
                      noise: NoiseLevels | None = None, regressors: tuple = (),
-                     motion_frequency: float | None = None) -> KalmanStiffness:
+                     motion_frequency: float | None = None, scale_from: np.ndarray | None = None
+                     ) -> KalmanStiffness:
     """Stiffness course by Kalman filtering and RTS smoothing, noise levels from the data.
 
     Parameters
@@ -239,6 +256,9 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
         then changes by −Δm·response₀ − Δb·response₁ when m and b change).
     motion_frequency : float, Hz
         Typical frequency of the motion (needed when ``noise`` is fitted).
+    scale_from : ndarray, shape (n,), optional
+        Torque whose size sets the diffuse initial covariance (default ``measured``); give the
+        recorded torque to keep the estimate exactly affine in m and b.
 
     Returns
     -------
@@ -248,10 +268,12 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
     y, z = angle[idx], measured[idx]
     increments = np.diff(y, prepend=y[0])
     step = sample_period * decimation
-    mean0, cov0 = _initial_state(y, z)
+    mean0 = _initial_mean(y, z)
+    cov0 = _initial_cov(y, z if scale_from is None else np.asarray(scale_from)[idx])
     if noise is None:
         duration = step * len(y)
-        guess = NoiseLevels(measurement=cov0[0], torque_walk=cov0[0] / duration,
+        resid = float(np.var(z - mean0[1] * (y - y.mean()))) + 1e-300
+        guess = NoiseLevels(measurement=resid, torque_walk=resid / duration,
                             stiffness_walk=(0.1 * abs(mean0[1]) + 1e-12) ** 2)
         noise, _ = fit_noise_levels(increments, z, step=step, initial_mean=mean0, initial_cov=cov0,
                                     guess=guess, motion_frequency=motion_frequency)
@@ -260,8 +282,8 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
     t_all = np.arange(len(angle))
     responses = np.empty((len(regressors), len(angle)))
     for j, reg in enumerate(regressors):
-        resp = kalman_filter(increments, np.asarray(reg)[idx], noise, step=step, initial_mean=(0.0, 0.0),
-                             initial_cov=cov0)
+        r = np.asarray(reg)[idx]
+        resp = kalman_filter(increments, r, noise, step=step, initial_mean=_initial_mean(y, r), initial_cov=cov0)
         responses[j] = np.interp(t_all, idx, rts_smoother(increments, resp)[0][:, 1])
     return KalmanStiffness(stiffness=np.interp(t_all, idx, sm[:, 1]),
                            variance=np.interp(t_all, idx, np.maximum(sc[:, 2], 0.0)),

@@ -1,0 +1,39 @@
+"""The five real ankle recordings (../shared/data/real/reklab-ankle), against SOURCE.md.
+
+SOURCE.md's reference values (least squares with a delayed reflex term, ±20–30 %):
+z_df I 0.0166 B 1.35 K 90; z_df2 I 0.0145 B 0.79 K 54; z_df3 I 0.0138 B 1.45 K 139;
+z_pf I 0.0165 B 0.65 K 69; z_pf2 I 0.0149 B 1.48 K 127.
+"""
+
+import pytest
+
+from limbstiff.analysis import analyze
+from limbstiff.io import read_trial
+from limbstiff.protocol import load_protocol
+
+from .conftest import PROTOCOLS, REAL
+
+REFERENCE = {"z_df": (0.0166, 1.35, 90.0), "z_df2": (0.0145, 0.79, 54.0), "z_df3": (0.0138, 1.45, 139.0),
+             "z_pf": (0.0165, 0.65, 69.0), "z_pf2": (0.0149, 1.48, 127.0)}
+
+pytestmark = pytest.mark.skipif(not REAL.exists(), reason="real ankle data not present")
+
+
+@pytest.fixture(scope="module")
+def results():
+    protocol = load_protocol(PROTOCOLS / "reklab-ankle.toml")
+    return {name: analyze(read_trial(REAL / f"{name}.csv", protocol), protocol) for name in REFERENCE}
+
+
+@pytest.mark.parametrize("name", ["z_df", "z_df2", "z_df3"])
+def test_dorsiflexor_stiffness_within_30_percent(results, name):
+    summary = results[name].summary()
+    assert summary["stiffness"]["median"] == pytest.approx(REFERENCE[name][2], rel=0.30)
+
+
+@pytest.mark.parametrize("name", list(REFERENCE))
+def test_inertia_and_damping_plausible(results, name):
+    s = results[name].summary()
+    # foot and footplate: 0.010–0.022 kg·m²; damping within a factor of two of SOURCE.md
+    assert 0.010 <= s["inertia"]["median"] <= 0.022
+    assert REFERENCE[name][1] / 2 <= s["damping"]["median"] <= REFERENCE[name][1] * 2
