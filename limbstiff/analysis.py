@@ -13,7 +13,7 @@ import numpy as np
 
 from scipy import stats
 
-from . import estimators, identify, observer, signals, smoothing
+from . import estimators, identify, observer, posterior, signals, smoothing
 from .errors import TrialError
 from .protocol import Protocol
 from .result import Interval, StiffnessResult
@@ -94,41 +94,51 @@ def _variant(trial: Trial, protocol: Protocol) -> str:
     return variant
 
 
-def _mechanics(trial, protocol, sig, motion, ci_level):
-    """Inertia and damping: given, or identified (least squares, then the state-space model).
+def _mechanics(trial, protocol, sig, motion, ci_level, rng, seed):
+    """Inertia and damping: given, or identified (least squares, ML, then the emcee posterior).
 
     Returns
     -------
     inertia, damping : Interval
     covariance : ndarray, shape (2, 2)
-        Posterior covariance of (m, b); zero where a value is given.
+        Posterior covariance of (m, b) (from the draws); zero where a value is given.
     details : dict
+    posterior : posterior.Posterior or None
     """
     where = trial.source or trial.name
     m, b = protocol.inertia, protocol.damping
     if m is not None and b is not None:
-        return Interval.fixed(m), Interval.fixed(b), np.zeros((2, 2)), {"method": "given"}
+        return Interval.fixed(m), Interval.fixed(b), np.zeros((2, 2)), {"method": "given"}, None
     y, f = sig.angle, sig.torque[0]
     guess = identify.least_squares(f, y[0], y[1], y[2], sample_period=trial.sample_period,
                                    window=IDENTIFY_PERIODS / motion)
+    decimation = estimators.kalman_decimation(sig)
+    problem = identify.MechanicsProblem.build(y[0], y[1], y[2], f, sample_period=trial.sample_period,
+                                              decimation=decimation, motion_frequency=motion, guess=guess)
     fit = identify.kalman_mechanics(y[0], y[1], y[2], f, sample_period=trial.sample_period,
-                                    decimation=estimators.kalman_decimation(sig), guess=guess,
-                                    motion_frequency=motion)
-    details = {"method": "kalman", "least_squares": {"inertia": guess.inertia, "damping": guess.damping,
-                                                      "window_s": guess.window, "condition": guess.condition},
-               "noise_levels": fit.noise.to_dict(), "loglik": fit.loglik, "decimation": fit.decimation}
-    cov = fit.covariance.copy()
-    values = [fit.inertia, fit.damping]
+                                    decimation=decimation, guess=guess, motion_frequency=motion)
+    post = posterior.sample(problem, start=fit, inertia_prior=protocol.inertia_prior,
+                            damping_prior=protocol.damping_prior, rng=rng, seed=seed)
+    draws = post.mechanics.copy()
+    details = {"method": "kalman+emcee",
+               "least_squares": {"inertia": guess.inertia, "damping": guess.damping,
+                                 "window_s": guess.window, "condition": guess.condition},
+               "maximum_likelihood": {"inertia": fit.inertia, "damping": fit.damping,
+                                      "noise_levels": fit.noise.to_dict(), "loglik": fit.loglik},
+               "noise_levels": post.noise_levels().to_dict(), "decimation": decimation,
+               "mcmc": post.diagnostics.to_dict(), "warnings": list(post.warnings)}
+    out = []
     for j, (name, given) in enumerate((("inertia", m), ("damping", b))):
         if given is not None:
-            values[j] = given
-            cov[j, :] = cov[:, j] = 0.0
-        elif not values[j] > 0:
-            raise TrialError(where, f"{name} could not be identified (the state-space fit gave "
-                                    f"{values[j]:.3g}); give it with --{name} or in the protocol")
-    z = float(stats.norm.ppf(0.5 + ci_level / 2))
-    out = [Interval(v, v - z * np.sqrt(cov[j, j]), v + z * np.sqrt(cov[j, j])) for j, v in enumerate(values)]
-    return out[0], out[1], cov, details
+            draws[:, j] = given
+            out.append(Interval.fixed(given))
+            continue
+        lo, med, hi = np.quantile(draws[:, j], [0.5 - ci_level / 2, 0.5, 0.5 + ci_level / 2])
+        if not med > 0:
+            raise TrialError(where, f"{name} could not be identified (its posterior median is "
+                                    f"{med:.3g}); give it with --{name} or in the protocol")
+        out.append(Interval(float(med), float(lo), float(hi)))
+    return out[0], out[1], np.cov(draws.T), details, post
 
 
 def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | None = None,
@@ -182,12 +192,15 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
 
     torque = torques["torque"] if variant == "external" else torques["elastic_torque"]
     sig = estimators.Signals(angle, torque, ts, bandwidth.cutoff_hz)
-    m = b = ident = None
+    m = b = ident = post = None
     cov = None
     mech = {}
     if variant == "external":
-        m, b, cov, ident = _mechanics(trial, protocol, sig, motion, protocol.ci_level)
+        m, b, cov, ident, post = _mechanics(trial, protocol, sig, motion, protocol.ci_level,
+                                            np.random.default_rng(seed), seed)
         mech = {"inertia": m.median, "damping": b.median}
+        if post is not None:
+            warnings += list(post.warnings)
     if protocol.estimator == "kalman":
         # the noise levels fitted with m and b (one likelihood for both), when they were fitted
         noise = smoothing.NoiseLevels(**ident["noise_levels"]) if ident and "noise_levels" in ident else None

@@ -98,17 +98,17 @@ def least_squares(torque: np.ndarray, angle: np.ndarray, velocity: np.ndarray,
 @dataclass(frozen=True)
 class MechanicsFit:
     """Inertia and damping identified with the state-space model, noise levels by maximum
-    likelihood.
+    (marginal) likelihood.
 
     Parameters
     ----------
     inertia, damping : float
         Posterior mean of m (kg·m² or kg) and b (N·m·s/rad or N·s/m) at the fitted noise levels.
     covariance : ndarray, shape (2, 2)
-        Their posterior covariance (Gaussian, exact for the linear model given the noise).
+        Their posterior covariance (Gaussian and exact for the linear model, given the noise).
     noise : smoothing.NoiseLevels
     loglik : float
-        Log marginal likelihood of the noise levels (m and b integrated out).
+        Log marginal likelihood of the noise levels (m and b integrated out, flat prior).
     decimation : int
     """
 
@@ -120,39 +120,78 @@ class MechanicsFit:
     decimation: int
 
 
-def state_space_problem(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray,
-                        torque: np.ndarray, *, decimation: int, guess: LeastSquaresFit):
-    """Decimated arrays and the diffuse prior of the four-state model [s, σ, m, b].
+#: Most filter steps used to identify m, b and the noise levels, and in how many blocks.
+MAX_IDENTIFY_STEPS, IDENTIFY_BLOCKS = 6000, 6
 
-    Returns
-    -------
-    arrays : tuple (increments, torque, acceleration, velocity), each shape (n_dec,)
-    x0 : ndarray, shape (4,)
-    p0 : ndarray, shape (4, 4)
+
+@dataclass(frozen=True)
+class MechanicsProblem:
+    """The decimated data of the state-space model with m and b in the measurement.
+
+    z = f − m·ÿ − b·ẏ is linear in (m, b) and the filter's covariance does not depend on the
+    data, so one pass over the channels (f, ÿ, ẏ) gives the likelihood as the quadratic form
+    −½·wᵀ·A·w in w = (1, −m, −b) (:func:`kernels.kalman_quadratic`). With a flat prior on (m, b)
+    they integrate out exactly, leaving the marginal likelihood of the noise levels, and their
+    conditional posterior is Gaussian.
+
+    Long trials are identified on at most :data:`MAX_IDENTIFY_STEPS` filter steps, taken as
+    :data:`IDENTIFY_BLOCKS` equal blocks spread over the trial (the filter restarts at each):
+    m and b are constant, so a few thousand steps pin them down, and the cost of the posterior
+    stops growing with the trial's length.
     """
-    idx = np.arange(0, len(angle), decimation)
-    y, f, a, v = angle[idx], torque[idx], acceleration[idx], velocity[idx]
-    z = f - guess.inertia * a - guess.damping * v
-    n0 = max(8, len(y) // 10)
-    yc = y[:n0] - y[:n0].mean()
-    slope = float(yc @ (z[:n0] - z[:n0].mean()) / (yc @ yc)) if yc @ yc > 0 else 0.0
-    stiff_scale = max(abs(slope), float(np.std(z)) / max(float(np.std(y)), 1e-300))
-    # diffuse: ten times the size of each quantity (m and b from least squares)
-    m_sd = 10 * max(abs(guess.inertia), float(np.std(f)) / max(float(np.std(a)), 1e-300) * 0.1)
-    b_sd = 10 * max(abs(guess.damping), float(np.std(f)) / max(float(np.std(v)), 1e-300) * 0.1)
-    x0 = np.array([z[0], slope, guess.inertia, guess.damping])
-    p0 = np.diag([float(np.var(z)) + 1e-12, (10 * stiff_scale) ** 2, m_sd ** 2, b_sd ** 2])
-    return (np.diff(y, prepend=y[0]), f, a, v), x0, p0
+
+    increments: np.ndarray
+    channels: np.ndarray
+    slopes: np.ndarray
+    initial_cov: tuple
+    step: float
+    bounds: np.ndarray
+    restart: np.ndarray
+
+    @classmethod
+    def build(cls, angle, velocity, acceleration, torque, *, sample_period: float, decimation: int,
+              motion_frequency: float, guess: LeastSquaresFit) -> "MechanicsProblem":
+        from . import smoothing
+        idx = np.arange(0, len(angle), decimation)
+        restart = np.zeros(len(idx), dtype=bool)
+        if len(idx) > MAX_IDENTIFY_STEPS:
+            size = MAX_IDENTIFY_STEPS // IDENTIFY_BLOCKS
+            starts = np.linspace(0, len(idx) - size, IDENTIFY_BLOCKS).astype(int)
+            idx = np.concatenate([idx[s0:s0 + size] for s0 in starts])
+            restart = np.zeros(len(idx), dtype=bool)
+            restart[::size] = True
+        y = np.ascontiguousarray(angle[idx], dtype=float)
+        chans = np.ascontiguousarray(np.vstack([torque[idx], acceleration[idx], velocity[idx]]), dtype=float)
+        n0 = max(8, len(y) // 10)
+        yc = y[:n0] - y[:n0].mean()
+        yy = float(yc @ yc) or 1.0
+        slopes = np.array([yc @ (c[:n0] - c[:n0].mean()) / yy for c in chans])
+        cov0 = smoothing._initial_cov(y, chans[0])
+        z = chans[0] - guess.inertia * chans[1] - guess.damping * chans[2]
+        bounds = np.array(smoothing.noise_bounds(float(np.var(z)), float(np.sqrt(cov0[2])), motion_frequency))
+        return cls(np.diff(y, prepend=y[0]), chans, slopes, cov0, sample_period * decimation, bounds, restart)
+
+    def conditional(self, log_noise):
+        """Log marginal likelihood of the noise levels, and the Gaussian posterior of (m, b).
+
+        Returns
+        -------
+        loglik : float
+        mean : ndarray, shape (2,)
+        cov : ndarray, shape (2, 2)
+        """
+        from . import kernels
+        r, qs, qk = np.exp(np.asarray(log_noise, dtype=float))
+        ll, m, b, c11, c12, c22 = kernels.marginal_loglik(self.increments, self.channels, self.slopes, r,
+                                                         qs * self.step, qk * self.step,
+                                                         self.initial_cov[0], self.initial_cov[2], self.restart)
+        return float(ll), np.array([m, b]), np.array([[c11, c12], [c12, c22]])
 
 
 def kalman_mechanics(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray, torque: np.ndarray,
                      *, sample_period: float, decimation: int, guess: LeastSquaresFit,
                      motion_frequency: float, max_evaluations: int = 300) -> MechanicsFit:
-    """Inertia and damping as constant states of the Kalman model, noise levels by ML.
-
-    The filter's prediction-error decomposition is the exact likelihood of the noise levels
-    with m and b integrated out (under a diffuse Gaussian prior centred on the least-squares
-    guess); at its maximum the final filtered state holds the posterior of m and b.
+    """Inertia and damping under the Kalman model, noise levels by maximum marginal likelihood.
 
     Parameters
     ----------
@@ -163,31 +202,25 @@ def kalman_mechanics(angle: np.ndarray, velocity: np.ndarray, acceleration: np.n
     sample_period : float, s
     decimation : int
     guess : LeastSquaresFit
+        Starting point (its residual sets the first guess of the noise levels).
     motion_frequency : float, Hz
         Typical motion frequency (sets the bounds of :func:`smoothing.noise_bounds`).
     max_evaluations : int
-        Likelihood evaluations allowed for the noise levels.
+        Likelihood evaluations allowed per start of the search.
 
     Returns
     -------
     MechanicsFit
     """
-    from . import kernels, smoothing
+    from . import smoothing
 
-    (d, f, a, v), x0, p0 = state_space_problem(angle, velocity, acceleration, torque,
-                                               decimation=decimation, guess=guess)
-    step = sample_period * decimation
-
-    def run(logs):
-        r, qs, qk = np.exp(np.clip(logs, -300, 300))
-        return kernels.kalman_mechanics(d, f, a, v, r, qs * step, qk * step, x0, p0)
-
+    problem = MechanicsProblem.build(angle, velocity, acceleration, torque, sample_period=sample_period,
+                                     decimation=decimation, motion_frequency=motion_frequency, guess=guess)
     resid_var = max(guess.residual_sd ** 2, 1e-300)
-    start = np.log([resid_var, resid_var / (step * len(d)), (0.1 * abs(x0[1]) + 1e-12) ** 2])
-    z = f - guess.inertia * a - guess.damping * v
-    bounds = smoothing.noise_bounds(float(np.var(z)), float(np.sqrt(p0[1, 1])) / 10, motion_frequency)
-    best, _ = smoothing.maximise(lambda logs: run(logs)[0], start, bounds, max_evaluations)
-    loglik, x, p = run(best)
-    return MechanicsFit(inertia=float(x[2]), damping=float(x[3]), covariance=np.array(p[2:, 2:]),
-                        noise=smoothing.NoiseLevels(*np.exp(best)), loglik=float(loglik),
-                        decimation=decimation)
+    duration = problem.step * len(problem.increments)
+    start = np.log([resid_var, resid_var / duration, (0.1 * abs(problem.slopes[0]) + 1e-12) ** 2])
+    best, _ = smoothing.maximise(lambda logs: problem.conditional(logs)[0], start, list(problem.bounds),
+                                 max_evaluations)
+    loglik, mean, cov = problem.conditional(best)
+    return MechanicsFit(inertia=float(mean[0]), damping=float(mean[1]), covariance=cov,
+                        noise=smoothing.NoiseLevels(*np.exp(best)), loglik=loglik, decimation=decimation)

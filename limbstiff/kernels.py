@@ -8,7 +8,8 @@ environment variable ``LIMBSTIFF_NO_JIT=1``, the same source runs in CPython. Th
 
 Kernels: the first-order linear recursion of the observer, the two-state Kalman filter
 (log-likelihood only, or with its moments), the Rauch–Tung–Striebel smoother, and the
-four-state filter that carries inertia and damping as constant states (:mod:`limbstiff.smoothing`).
+filter pass over several measurement channels whose likelihood is quadratic in their weights
+(inertia and damping, :mod:`limbstiff.identify`).
 """
 
 from __future__ import annotations
@@ -160,43 +161,92 @@ def rts_smoother(d, fm, fc, pm, pc):
     return sm, sc
 
 
-def kalman_mechanics(d, f, acc, vel, r, qs, qk, x0, p0):
-    """Filter with inertia and damping as constant states: x = [s, σ, m, b].
+def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
+    """One filter pass of the two-state model over several measurement channels at once.
 
-    Measurement f[k] = s + m·ÿ[k] + b·ẏ[k] + v. Returns the log-likelihood (the marginal
-    likelihood of the noise levels, m and b integrated over their Gaussian prior x0, p0) and
-    the final filtered mean (4,) and covariance (4, 4) — the posterior of the constant m, b.
+    The covariance recursion does not depend on the data, so the innovations of every channel
+    share their variance S[k]. For z = Σ_c w_c·chans[c] (for example w = (1, −m, −b) on
+    f, ÿ, ẏ) the log-likelihood is −½·(n·ln 2π + Σ ln S + wᵀ·A·w) with A[c, c'] = Σ e_c·e_c'/S.
+
+    Parameters
+    ----------
+    d : (n,) increments of y
+    chans : (c, n) measurement channels
+    slopes : (c,) initial σ of each channel (its least-squares slope on y)
+    r, qs, qk : noise variances per step
+    p11, p22 : initial variances of s and σ
+    restart : (n,) bool; where True the state restarts (independent blocks of data)
+
+    Returns
+    -------
+    sum_log_s : float
+    a : ndarray, shape (c, c)
     """
-    n = f.shape[0]
-    x = x0.copy()
-    p = p0.copy()
-    ph = np.empty(4)
-    loglik = 0.0
-    log2pi = math.log(2.0 * math.pi)
+    nc = chans.shape[0]
+    n = chans.shape[1]
+    s = np.empty(nc)
+    sig = np.empty(nc)
+    e = np.empty(nc)
+    for c in range(nc):
+        s[c] = chans[c, 0]
+        sig[c] = slopes[c]
+    a = np.zeros((nc, nc))
+    a11 = p11
+    a12 = 0.0
+    a22 = p22
+    sum_log_s = 0.0
     for i in range(n):
-        if i > 0:
+        if i > 0 and restart[i]:
+            for c in range(nc):
+                s[c] = chans[c, i]
+                sig[c] = slopes[c]
+            a11 = p11
+            a12 = 0.0
+            a22 = p22
+        elif i > 0:
             di = d[i]
-            x[0] += x[1] * di
-            # P ← F·P·Fᵀ + Q with F = I + d·e0·e1ᵀ
-            for j in range(4):
-                p[0, j] += di * p[1, j]
-            for j in range(4):
-                p[j, 0] += di * p[j, 1]
-            p[0, 0] += qs
-            p[1, 1] += qk
-        h2 = acc[i]
-        h3 = vel[i]
-        for j in range(4):
-            ph[j] = p[j, 0] + p[j, 2] * h2 + p[j, 3] * h3
-        sv = ph[0] + ph[2] * h2 + ph[3] * h3 + r
-        e = f[i] - (x[0] + x[2] * h2 + x[3] * h3)
-        for j in range(4):
-            x[j] += ph[j] * e / sv
-        for j in range(4):
-            for l in range(4):
-                p[j, l] -= ph[j] * ph[l] / sv
-        loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
-    return loglik, x, p
+            for c in range(nc):
+                s[c] += sig[c] * di
+            a11 = a11 + 2.0 * di * a12 + di * di * a22 + qs
+            a12 = a12 + di * a22
+            a22 = a22 + qk
+        sv = a11 + r
+        g1 = a11 / sv
+        g2 = a12 / sv
+        for c in range(nc):
+            e[c] = chans[c, i] - s[c]
+            s[c] += g1 * e[c]
+            sig[c] += g2 * e[c]
+        for c in range(nc):
+            for c2 in range(nc):
+                a[c, c2] += e[c] * e[c2] / sv
+        a22 = a22 - g2 * a12
+        a12 = a12 - g1 * a12
+        a11 = a11 - g1 * a11
+        sum_log_s += math.log(sv)
+    return sum_log_s, a
+
+
+def marginal_loglik(d, chans, slopes, r, qs, qk, p11, p22, restart):
+    """Log-likelihood of the noise levels with the weights of channels 1 and 2 (−m, −b)
+    integrated out under a flat prior, and their Gaussian posterior (see
+    :func:`kalman_quadratic`). Returns (loglik, m, b, var_m, cov_mb, var_b); loglik is −inf
+    when the data do not determine m and b."""
+    sls, a = kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart)
+    h1 = a[0, 1]
+    h2 = a[0, 2]
+    det = a[1, 1] * a[2, 2] - a[1, 2] * a[1, 2]
+    if not det > 0.0:
+        return -np.inf, np.nan, np.nan, np.nan, np.nan, np.nan
+    c11 = a[2, 2] / det
+    c12 = -a[1, 2] / det
+    c22 = a[1, 1] / det
+    m = c11 * h1 + c12 * h2
+    b = c12 * h1 + c22 * h2
+    q_min = a[0, 0] - (h1 * m + h2 * b)
+    n = chans.shape[1]
+    loglik = -0.5 * (n * math.log(2.0 * math.pi) + sls + q_min) + math.log(2.0 * math.pi) - 0.5 * math.log(det)
+    return loglik, m, b, c11, c12, c22
 
 
 def _compile():
@@ -207,7 +257,8 @@ def _compile():
     except ImportError:
         return False
     g = globals()
-    for name in ("linear_recursion", "kalman_loglik", "kalman_moments", "rts_smoother", "kalman_mechanics"):
+    for name in ("linear_recursion", "kalman_loglik", "kalman_moments", "rts_smoother", "kalman_quadratic",
+                 "marginal_loglik"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True
 

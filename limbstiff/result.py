@@ -146,6 +146,7 @@ class StiffnessResult:
             "damping": None if self.damping is None else self.damping.to_dict(),
             "stiffness": stiffness,
             "observable_fraction": self.observable_fraction,
+            "mcmc": _jsonable((self.details.get("identification") or {}).get("mcmc")),
             "reference_error": self.reference_error(),
             "warnings": list(self.warnings),
             "units": dict(trial.units),

@@ -171,18 +171,22 @@ def _initial_cov(angle, scale_from):
 def noise_bounds(measured_variance: float, stiffness_scale: float, motion_frequency: float) -> list:
     """Bounds on the logarithms of (R, Q_s, Q_σ) that keep the model observable.
 
-    By bound (9) of the paper a stiffness that changes faster than the motion reveals it
-    cannot be tracked, so within one period of the typical motion the stiffness may not walk
-    by more than its own size, nor the non-elastic torque by more than the torque's spread:
-    Q_σ ≤ σ²·f_motion, Q_s ≤ var(z)·f_motion. The measurement noise lies between 10⁻⁸·var(z)
-    and var(z). Without these bounds, data sampled finely compared with its residual's
-    correlation time admit a degenerate optimum (R → 0, the stiffness jumping to follow every
-    sample).
+    Upper bounds: by bound (9) of the paper a stiffness that changes faster than the motion
+    reveals it cannot be tracked, so within one period of the typical motion the stiffness may
+    not walk by more than its own size, nor the non-elastic torque by more than the torque's
+    spread: Q_σ ≤ σ²·f_motion, Q_s ≤ var(z)·f_motion, and R ≤ var(z). Without them, data
+    sampled finely compared with its residual's correlation time admit a degenerate optimum
+    (R → 0, the stiffness jumping to follow every sample). Lower bounds: levels below which a
+    term has no visible effect on the estimate — measurement noise of 10⁻⁶·var(z), a
+    non-elastic torque walking by 0.1 % of its spread or a stiffness walking by 0.01 % of
+    itself per motion period — so that a flat prior on the log scale stays proper and the
+    sampler does not wander over decades the data cannot tell apart.
     """
     v = max(measured_variance, 1e-300)
     k2 = max(stiffness_scale ** 2, 1e-300)
-    return [(np.log(1e-8 * v), np.log(v)), (np.log(1e-12 * v * motion_frequency), np.log(v * motion_frequency)),
-            (np.log(1e-12 * k2 * motion_frequency), np.log(k2 * motion_frequency))]
+    f = motion_frequency
+    return [(np.log(1e-6 * v), np.log(v)), (np.log(1e-6 * v * f), np.log(v * f)),
+            (np.log(1e-8 * k2 * f), np.log(k2 * f))]
 
 
 def maximise(loglik, start: np.ndarray, bounds: list, max_evaluations: int = 300):

@@ -102,8 +102,15 @@ def test_compiled_kernels_equal_the_reference():
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
     for x, y in zip(kernels.rts_smoother(d, *fast[:4]), kernels.rts_smoother.py_func(d, *ref[:4])):
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
-    x0, p0 = np.array([0.0, 1.0, 0.05, 0.4]), np.diag([1.0, 4.0, 1.0, 1.0])
-    fast = kernels.kalman_mechanics(d, z, acc, vel, 1e-3, 1e-4, 1e-2, x0, p0)
-    ref = kernels.kalman_mechanics.py_func(d, z, acc, vel, 1e-3, 1e-4, 1e-2, x0, p0)
-    for x, y in zip(fast, ref):
-        np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
+    chans, slopes = np.vstack([z, acc, vel]), np.array([0.3, 0.1, 0.2])
+    args = (d, chans, slopes, 1e-3, 1e-4, 1e-2, 1.0, 4.0, np.zeros(n, dtype=bool))
+    for x, y in zip(kernels.marginal_loglik(*args), kernels.marginal_loglik.py_func(*args)):
+        np.testing.assert_allclose(x, y, rtol=1e-9)
+    # the quadratic form equals the direct two-state likelihood of z = f − m·ÿ − b·ẏ
+    m, b = 0.05, 0.4
+    sls, a = kernels.kalman_quadratic(*args)
+    w = np.array([1.0, -m, -b])
+    zz = z - m * acc - b * vel
+    # same initial mean as the quadratic form: first value and slope of z
+    direct = kernels.kalman_loglik(d, zz, 1e-3, 1e-4, 1e-2, zz[0], slopes @ w, 1.0, 0.0, 4.0)
+    assert -0.5 * (n * np.log(2 * np.pi) + sls + w @ a @ w) == pytest.approx(direct, rel=1e-10)

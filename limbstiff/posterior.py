@@ -1,0 +1,203 @@
+"""Posterior of inertia, damping and the noise levels by emcee, with its quality checked.
+
+The likelihood is the Kalman model's exact one (:mod:`limbstiff.smoothing`). Parameters
+θ = (m, b, ln R, ln Q_s, ln Q_σ): m and b carry the protocol's priors (default: flat on
+m, b > 0) and are integrated exactly given the noise levels; the log noise levels are flat
+within :func:`limbstiff.smoothing.noise_bounds` and sampled by emcee. The chain runs in blocks until it is at least
+:data:`MIN_TAU_MULTIPLE` integrated autocorrelation times long (emcee's own estimator) or
+:data:`MAX_STEPS` is reached, in which case a warning says so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import smoothing
+from .protocol import Prior
+
+#: The chain must be this many autocorrelation times long (emcee's recommendation: ≥ 50).
+MIN_TAU_MULTIPLE = 50
+#: Steps per block between convergence checks, and the most steps run.
+BLOCK_STEPS, MAX_STEPS = 250, 10_000
+#: Walkers: emcee's stretch move wants at least twice the dimension (3 noise levels).
+N_WALKERS = 8
+#: Posterior draws kept for the bands and the draws file.
+N_DRAWS = 2000
+PARAMETERS = ("inertia", "damping", "log_measurement", "log_torque_walk", "log_stiffness_walk")
+
+
+@dataclass(frozen=True)
+class McmcDiagnostics:
+    """How the chain went.
+
+    Parameters
+    ----------
+    n_walkers, n_steps, burn_in, thin : int
+    autocorr_time : dict of str to float
+        Integrated autocorrelation time of each parameter, in steps (emcee's estimator).
+    acceptance_fraction : float
+        Mean over walkers.
+    converged : bool
+        The chain is at least :data:`MIN_TAU_MULTIPLE` autocorrelation times long.
+    seed : int
+    """
+
+    n_walkers: int
+    n_steps: int
+    burn_in: int
+    thin: int
+    autocorr_time: dict
+    acceptance_fraction: float
+    converged: bool
+    seed: int
+
+    def to_dict(self) -> dict:
+        return {"sampler": "emcee", "n_walkers": self.n_walkers, "n_steps": self.n_steps,
+                "burn_in": self.burn_in, "thin": self.thin, "autocorr_time": self.autocorr_time,
+                "chain_in_autocorr_times": self.n_steps / max(self.autocorr_time.values()),
+                "acceptance_fraction": self.acceptance_fraction, "converged": self.converged,
+                "seed": self.seed}
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """Posterior draws of θ = (m, b, ln R, ln Q_s, ln Q_σ).
+
+    Parameters
+    ----------
+    draws : ndarray, shape (n_draws, 5)
+    diagnostics : McmcDiagnostics
+    warnings : tuple of str
+    """
+
+    draws: np.ndarray
+    diagnostics: McmcDiagnostics
+    warnings: tuple[str, ...] = field(default=())
+
+    @property
+    def mechanics(self) -> np.ndarray:
+        """Draws of (m, b), shape (n_draws, 2)."""
+        return self.draws[:, :2]
+
+    def interval(self, j: int, level: float) -> tuple[float, float, float]:
+        """Median and central interval of parameter ``j``."""
+        lo, med, hi = np.quantile(self.draws[:, j], [0.5 - level / 2, 0.5, 0.5 + level / 2])
+        return float(med), float(lo), float(hi)
+
+    def noise_levels(self) -> smoothing.NoiseLevels:
+        """Posterior median of the noise levels."""
+        return smoothing.NoiseLevels(*np.exp(np.median(self.draws[:, 2:], axis=0)))
+
+    def to_frame(self):
+        """The draws as a :class:`pandas.DataFrame` (one column per parameter)."""
+        import pandas as pd
+        return pd.DataFrame(self.draws, columns=PARAMETERS)
+
+
+def log_prior(values: np.ndarray, prior: Prior) -> np.ndarray:
+    """Log density (up to a constant) of a positive parameter under ``prior``; −inf if ≤ 0.
+
+    ``halfnormal`` without a scale is the default: flat on the positive half-line.
+    """
+    x = np.asarray(values, dtype=float)
+    out = np.full(x.shape, -np.inf)
+    ok = x > 0
+    if prior.distribution == "lognormal":
+        out[ok] = -0.5 * (np.log(x[ok] / prior.median) / prior.sigma) ** 2 - np.log(x[ok])
+    elif prior.distribution == "uniform":
+        ok &= (x >= prior.low) & (x <= prior.high)
+        out[ok] = 0.0
+    elif prior.scale is None:
+        out[ok] = 0.0
+    else:
+        out[ok] = -0.5 * (x[ok] / prior.scale) ** 2
+    return out
+
+
+def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: np.random.Generator,
+           seed: int) -> Posterior:
+    """Posterior of (m, b) and the noise levels: emcee on the noise levels, m and b exactly.
+
+    For given noise levels the likelihood is Gaussian in (m, b) (see
+    :class:`identify.MechanicsProblem`), so the chain runs over the three log noise levels on
+    their marginal likelihood, and each kept state contributes one draw of (m, b) from its
+    Gaussian conditional. The protocol's priors on m and b (and their positivity) enter by
+    importance resampling of those draws.
+
+    Parameters
+    ----------
+    problem : identify.MechanicsProblem
+    start : identify.MechanicsFit
+        The maximum-likelihood fit the walkers start around.
+    inertia_prior, damping_prior : Prior
+    rng : numpy.random.Generator
+        Source of every random draw (walkers' start, emcee's generator, conditional draws).
+    seed : int
+        Recorded in the diagnostics.
+
+    Returns
+    -------
+    Posterior
+    """
+    import logging
+
+    import emcee
+
+    lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
+
+    def log_prob(thetas):
+        out = np.full(len(thetas), -np.inf)
+        for j, th in enumerate(thetas):
+            if np.all((th >= lo) & (th <= hi)):
+                out[j] = problem.conditional(th)[0]
+        return out
+
+    centre = np.clip(np.log([start.noise.measurement, start.noise.torque_walk, start.noise.stiffness_walk]), lo, hi)
+    p0 = np.clip(centre + 0.05 * rng.standard_normal((N_WALKERS, 3)), lo, hi)
+    # differential-evolution moves: integrated autocorrelation times of ~15 steps here against
+    # ~45 with the default stretch move (the stiffness walk's posterior often rests on a bound)
+    moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    sampler = emcee.EnsembleSampler(N_WALKERS, 3, log_prob, vectorize=True, moves=moves)
+    sampler.random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
+    state, steps, warnings = p0, 0, []
+    logger = logging.getLogger("emcee")
+    level, logger.level = logger.level, logging.ERROR        # its "chain too short" is ours to say
+    try:
+        while True:
+            state = sampler.run_mcmc(state, BLOCK_STEPS, progress=False)
+            steps += BLOCK_STEPS
+            tau = emcee.autocorr.integrated_time(sampler.get_chain(), quiet=True)
+            if steps >= MIN_TAU_MULTIPLE * np.max(tau) or steps >= MAX_STEPS:
+                break
+    finally:
+        logger.level = level
+    converged = bool(steps >= MIN_TAU_MULTIPLE * np.max(tau))
+    if not converged:
+        warnings.append(f"MCMC chain is only {steps / np.max(tau):.0f} autocorrelation times long "
+                        f"(fewer than {MIN_TAU_MULTIPLE}); the posterior may be rough")
+    burn = int(min(steps // 2, 3 * np.max(tau)))
+    flat = sampler.get_chain(discard=burn, flat=True)
+    thin = max(1, len(flat) // N_DRAWS)
+    noise = flat[::thin][-N_DRAWS:]
+    mech = np.empty((len(noise), 2))
+    for j, th in enumerate(noise):
+        _, mean, cov = problem.conditional(th)
+        mech[j] = rng.multivariate_normal(mean, cov)
+    logw = log_prior(mech[:, 0], inertia_prior) + log_prior(mech[:, 1], damping_prior)
+    if not np.any(np.isfinite(logw)):
+        warnings.append("no posterior draw of inertia and damping satisfies their priors (all ≤ 0?)")
+        keep = np.arange(len(mech))
+    else:
+        w = np.exp(logw - np.max(logw))
+        keep = rng.choice(len(mech), size=len(mech), p=w / w.sum())
+    draws = np.hstack([mech, noise])[keep]
+    acceptance = float(np.mean(sampler.acceptance_fraction))
+    if not 0.15 <= acceptance <= 0.7:
+        warnings.append(f"MCMC acceptance fraction {acceptance:.2f} is unusual (0.15–0.7 expected)")
+    names = PARAMETERS[2:]
+    diag = McmcDiagnostics(n_walkers=N_WALKERS, n_steps=steps, burn_in=burn, thin=thin,
+                           autocorr_time=dict(zip(names, map(float, tau))),
+                           acceptance_fraction=acceptance, converged=converged, seed=seed)
+    return Posterior(draws=draws, diagnostics=diag, warnings=tuple(warnings))
