@@ -141,6 +141,35 @@ def _mechanics(trial, protocol, sig, motion, ci_level, rng, seed):
     return out[0], out[1], np.cov(draws.T), details, post
 
 
+def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int = 0) -> dict:
+    """Identify inertia and damping of one trial only (``limbstiff identify``).
+
+    Returns
+    -------
+    dict
+        ``summary`` (JSON-ready: trial, intervals, noise levels, MCMC diagnostics) and
+        ``posterior`` (:class:`~limbstiff.posterior.Posterior`, None when both are given).
+    """
+    protocol = protocol or Protocol()
+    where = trial.source or trial.name
+    if _variant(trial, protocol) != "external":
+        raise TrialError(where, "inertia and damping are identified from the external torque; "
+                                "this trial has only the elastic torque (direct variant)")
+    angle, torques, bandwidth = derivatives(trial, protocol)
+    sig = estimators.Signals(angle, torques["torque"], trial.sample_period, bandwidth.cutoff_hz)
+    motion = signals.motion_frequency(angle[0], trial.fs)
+    m, b, cov, ident, post = _mechanics(trial, protocol, sig, motion, protocol.ci_level,
+                                        np.random.default_rng(seed), seed)
+    from . import __version__
+    summary = {"trial": trial.name, "source": trial.source, "source_sha256": trial.source_sha256,
+               "ci_level": protocol.ci_level, "inertia": m.to_dict(), "damping": b.to_dict(),
+               "covariance": cov.tolist(), "units": {k: trial.units[k] for k in ("inertia", "damping")},
+               "identification": ident, "mcmc": ident.get("mcmc"), "seed": seed,
+               "warnings": list(trial.warnings) + list(ident.get("warnings", [])),
+               "software": {"name": "limbstiff", "version": __version__}, "metadata": dict(trial.metadata)}
+    return {"summary": summary, "posterior": post}
+
+
 def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | None = None,
             damping: float | None = None, observer_gain: float | None = None,
             estimator: str | None = None, seed: int = 0,

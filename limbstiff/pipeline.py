@@ -68,6 +68,47 @@ def _analyse_and_write(job: batch.BatchJob) -> dict:
     return write_result(result, job.out, extra={"output": str(job.out), "files": files})
 
 
+def _identify_and_write(job: batch.BatchJob) -> dict:
+    """Read one trial, identify m and b, write posterior.json and draws.csv (worker process)."""
+    from .analysis import identify_trial
+    from .io import read_trial
+    from .io.atomic import atomic_write_text
+    from .io.outputs import write_json
+    from .result import _jsonable
+
+    opts = job.options
+    if (job.out / "posterior.json").exists() and not opts["overwrite"]:
+        raise LimbstiffError(f"{job.source}: outputs already exist in {job.out} (use --overwrite)")
+    trial = read_trial(job.source, opts["protocol"], name=job.name)
+    out = identify_trial(trial, opts["protocol"], seed=opts["seed"])
+    job.out.mkdir(parents=True, exist_ok=True)
+    if out["posterior"] is not None:
+        atomic_write_text(job.out / "draws.csv", out["posterior"].to_frame().to_csv(index=False, float_format="%.10g"))
+    summary = _jsonable(dict(out["summary"], output=str(job.out)))
+    write_json(job.out / "posterior.json", summary)
+    return summary
+
+
+def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-identify",
+                   jobs: int = 1, seed: int = 0, overwrite: bool = False,
+                   progress: Callable[[batch.TrialOutcome, int, int], None] | None = None) -> BatchReport:
+    """Identify inertia and damping of every trial named by ``paths`` (``limbstiff identify``).
+
+    Writes ``OUT/<trial>/posterior.json`` (intervals, noise levels, MCMC diagnostics),
+    ``OUT/<trial>/draws.csv`` (posterior draws) and ``OUT/summary.csv``.
+    """
+    files = batch.discover(paths)
+    names, notes = batch.output_names(files)
+    out = Path(out)
+    options = {"protocol": protocol or Protocol(), "seed": seed, "overwrite": overwrite}
+    jobs_list = [batch.BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
+    worker = functools.partial(batch.run_one, analyse_and_write=_identify_and_write)
+    outcomes = batch.run_jobs(jobs_list, worker, n_jobs=jobs, progress=progress)
+    out.mkdir(parents=True, exist_ok=True)
+    batch.write_summary_csv(out / "summary.csv", outcomes)
+    return BatchReport(outcomes=tuple(outcomes), out=out, notes=tuple(notes))
+
+
 def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",
                   jobs: int = 1, seed: int = 0, pdf: bool = True, overwrite: bool = False,
                   reference=None,

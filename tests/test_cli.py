@@ -179,3 +179,25 @@ def test_simulate_list_and_bad_scenario(tmp_path):
     assert res.exit_code == 2 and "unknown scenario" in res.output and "Traceback" not in res.output
     res = run("simulate", "elbow", "--set", "durashun=3", "--out", tmp_path / "x.csv")
     assert res.exit_code == 2 and "durashun" in res.output
+
+
+def test_identify_writes_posterior_and_draws(tmp_path):
+    path = tmp_path / "elbow.csv"
+    assert run("simulate", "elbow", "--seed", 11, "--set", "duration=8", "--out", path).exit_code == 0
+    out = tmp_path / "id"
+    res = run("identify", path, "--out", out, "--seed", 5, "--jobs", 1)
+    assert res.exit_code == 0, res.output
+    post = json.loads((out / "elbow" / "posterior.json").read_text())
+    draws = pd.read_csv(out / "elbow" / "draws.csv")
+    assert list(draws.columns[:2]) == ["inertia", "damping"] and len(draws) >= 1000
+    mcmc = post["mcmc"]
+    assert {"n_walkers", "n_steps", "autocorr_time", "acceptance_fraction", "converged", "seed"} <= set(mcmc)
+    assert mcmc["seed"] == 5 and 0.15 < mcmc["acceptance_fraction"] < 0.7
+    # simulated elbow: m = 0.06 kg·m², b = 0.45 N·m·s/rad
+    assert post["inertia"]["lo"] < post["inertia"]["median"] < post["inertia"]["hi"]
+    assert post["inertia"]["median"] == pytest.approx(0.06, rel=0.05)
+    assert post["damping"]["median"] == pytest.approx(0.45, rel=0.05)
+    # same seed, same draws
+    out2 = tmp_path / "id2"
+    assert run("identify", path, "--out", out2, "--seed", 5, "--jobs", 1).exit_code == 0
+    assert pd.read_csv(out2 / "elbow" / "draws.csv").equals(draws)

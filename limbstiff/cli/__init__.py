@@ -15,6 +15,7 @@ from .. import __version__
 
 COMMANDS = {
     "analyze": "Estimate stiffness of trial files and write the outputs.",
+    "identify": "Identify inertia and damping (posterior by emcee) without the stiffness.",
     "simulate": "Write a simulated trial (paper scenarios, human limbs, effects).",
     "calibrate": "Fit an exponential spring to force–displacement pairs (paper Sec. V).",
 }
