@@ -230,6 +230,13 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
         mech = {"inertia": m.median, "damping": b.median}
         if post is not None:
             warnings += list(post.warnings)
+        if protocol.inertia_range is not None:
+            lo, hi = protocol.inertia_range
+            inside = lo <= m.median <= hi
+            ident["inertia_in_expected_range"] = {"range": [lo, hi], "inside": inside}
+            if not inside:
+                warnings.append(f"identified inertia {m.median:.4g} is outside the range expected for "
+                                f"this set-up ({lo:g}–{hi:g})")
     if protocol.estimator == "kalman":
         # the noise levels fitted with m and b (one likelihood for both), when they were fitted
         noise = smoothing.NoiseLevels(**ident["noise_levels"]) if ident and "noise_levels" in ident else None

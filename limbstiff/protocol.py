@@ -108,6 +108,9 @@ class Protocol:
         Fixed damping b; None identifies it.
     inertia_prior, damping_prior : Prior
         Priors used when m and b are identified.
+    inertia_range : tuple of float or None, kg·m² (kg)
+        Range of inertia expected for the set-up (anthropometry plus attachments); an
+        identified inertia outside it is reported as a warning.
     ci_level : float
         Level of the central credible interval reported as ``lo``/``hi``.
     """
@@ -129,6 +132,7 @@ class Protocol:
     damping: float | None = None
     inertia_prior: Prior = field(default_factory=Prior)
     damping_prior: Prior = field(default_factory=Prior)
+    inertia_range: tuple | None = None
     ci_level: float = 0.9
 
     def __post_init__(self):
@@ -164,7 +168,7 @@ _SECTIONS = {
                 "prefilter_time_constant": "prefilter_time_constant",
                 "dirty_derivative_time_constant": "dirty_derivative_time_constant",
                 "sample_period": "sample_period"},
-    "mechanics": {"inertia": "inertia", "damping": "damping"},
+    "mechanics": {"inertia": "inertia", "damping": "damping", "expected_inertia": "inertia_range"},
     "report": {"ci_level": "ci_level"},
 }
 # Settings for which "auto" (None) means: derive from each trial's data.
@@ -277,6 +281,12 @@ def _check(p: Protocol) -> None:
         _positive(p, name)
     for name in ("prefilter_time_constant", "dirty_derivative_time_constant"):
         _positive(p, name, allow_none=False)
+    if p.inertia_range is not None:
+        r = p.inertia_range
+        if not (isinstance(r, (list, tuple)) and len(r) == 2 and all(isinstance(x, (int, float)) for x in r)
+                and 0 < r[0] < r[1]):
+            raise ProtocolError(where, f"'expected_inertia' must be [low, high] with 0 < low < high, not {r!r}")
+        object.__setattr__(p, "inertia_range", (float(r[0]), float(r[1])))
     if not (isinstance(p.ci_level, float) and 0 < p.ci_level < 1):
         raise ProtocolError(where, f"'ci_level' must be a number between 0 and 1, not {p.ci_level!r}")
     for label, prior in (("inertia", p.inertia_prior), ("damping", p.damping_prior)):

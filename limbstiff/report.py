@@ -37,10 +37,15 @@ def _first_page(fig, result):
                              f"({100 * s['ci_level']:.0f} % band)"),
         ("Stiffness range", f"{_fmt(s['stiffness']['min'])} to {_fmt(s['stiffness']['max'], u['stiffness'])}"),
     ]
+    expected = ((s["details"].get("identification") or {}).get("inertia_in_expected_range"))
     for name in ("inertia", "damping"):
         v = s[name]
-        lines.append((name.capitalize(), "not needed (direct variant)" if v is None else
-                      f"{_fmt(v['median'], u[name])} [{_fmt(v['lo'])}, {_fmt(v['hi'])}]"))
+        text = "not needed (direct variant)" if v is None else \
+            f"{_fmt(v['median'], u[name])} [{_fmt(v['lo'])}, {_fmt(v['hi'])}]"
+        if name == "inertia" and expected:
+            lo, hi = expected["range"]
+            text += f" — {'within' if expected['inside'] else 'OUTSIDE'} the expected {lo:g}–{hi:g}"
+        lines.append((name.capitalize(), text))
     lines.append(("Observable fraction", f"{100 * s['observable_fraction']:.1f} % of the trial"))
     err = s.get("reference_error")
     if err and err.get("median") is not None:

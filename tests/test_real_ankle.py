@@ -37,3 +37,11 @@ def test_inertia_and_damping_plausible(results, name):
     # foot and footplate: 0.010–0.022 kg·m²; damping within a factor of two of SOURCE.md
     assert 0.010 <= s["inertia"]["median"] <= 0.022
     assert REFERENCE[name][1] / 2 <= s["damping"]["median"] <= REFERENCE[name][1] * 2
+
+
+@pytest.mark.parametrize("name", list(REFERENCE))
+def test_summary_says_inertia_is_in_the_expected_range(results, name):
+    # protocols/reklab-ankle.toml: expected_inertia = [0.010, 0.022]
+    check = results[name].summary()["details"]["identification"]["inertia_in_expected_range"]
+    assert check == {"range": [0.010, 0.022], "inside": True}
+    assert results[name].summary()["mcmc"]["converged"]
