@@ -32,28 +32,9 @@ def linear_recursion(a, c, initial):
 
 
 def kalman_loglik(d, z, r, qs, qk, s, k, p11, p12, p22):
-    """Log-likelihood of the model of :mod:`limbstiff.smoothing` (filter pass, no storage)."""
-    n = z.shape[0]
-    loglik = 0.0
-    log2pi = math.log(2.0 * math.pi)
-    for i in range(n):
-        if i > 0:
-            di = d[i]
-            s = s + k * di
-            p11 = p11 + 2.0 * di * p12 + di * di * p22 + qs
-            p12 = p12 + di * p22
-            p22 = p22 + qk
-        sv = p11 + r
-        e = z[i] - s
-        g1 = p11 / sv
-        g2 = p12 / sv
-        s = s + g1 * e
-        k = k + g2 * e
-        p22 = p22 - g2 * p12
-        p12 = p12 - g1 * p12
-        p11 = p11 - g1 * p11
-        loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
-    return loglik
+    """Log-likelihood of the model of :mod:`limbstiff.smoothing` (the filter pass of
+    :func:`kalman_moments`, moments discarded)."""
+    return kalman_moments(d, z, r, qs, qk, s, k, p11, p12, p22)[4]
 
 
 def kalman_moments(d, z, r, qs, qk, s, k, p11, p12, p22):
@@ -257,7 +238,8 @@ def _compile():
     except ImportError:
         return False
     g = globals()
-    for name in ("linear_recursion", "kalman_loglik", "kalman_moments", "rts_smoother", "kalman_quadratic",
+    # callees first, so that the compiled callers call compiled code
+    for name in ("linear_recursion", "kalman_moments", "kalman_loglik", "rts_smoother", "kalman_quadratic",
                  "marginal_loglik"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True

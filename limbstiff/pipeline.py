@@ -68,6 +68,20 @@ def _analyse_and_write(job: batch.BatchJob) -> dict:
     return write_result(result, job.out, extra={"output": str(job.out), "files": files})
 
 
+def _run(paths, work, options, *, out, jobs, progress) -> BatchReport:
+    """Discover the trials, run ``work`` on each (one failure never stops the others), write
+    ``summary.csv``."""
+    files = batch.discover(paths)
+    names, notes = batch.output_names(files)
+    out = Path(out)
+    jobs_list = [batch.BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
+    outcomes = batch.run_jobs(jobs_list, functools.partial(batch.run_one, analyse_and_write=work),
+                              n_jobs=jobs, progress=progress)
+    out.mkdir(parents=True, exist_ok=True)
+    batch.write_summary_csv(out / "summary.csv", outcomes)
+    return BatchReport(outcomes=tuple(outcomes), out=out, notes=tuple(notes))
+
+
 def _identify_and_write(job: batch.BatchJob) -> dict:
     """Read one trial, identify m and b, write posterior.json and draws.csv (worker process)."""
     from .analysis import identify_trial
@@ -97,16 +111,8 @@ def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     Writes ``OUT/<trial>/posterior.json`` (intervals, noise levels, MCMC diagnostics),
     ``OUT/<trial>/draws.csv`` (posterior draws) and ``OUT/summary.csv``.
     """
-    files = batch.discover(paths)
-    names, notes = batch.output_names(files)
-    out = Path(out)
     options = {"protocol": protocol or Protocol(), "seed": seed, "overwrite": overwrite}
-    jobs_list = [batch.BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
-    worker = functools.partial(batch.run_one, analyse_and_write=_identify_and_write)
-    outcomes = batch.run_jobs(jobs_list, worker, n_jobs=jobs, progress=progress)
-    out.mkdir(parents=True, exist_ok=True)
-    batch.write_summary_csv(out / "summary.csv", outcomes)
-    return BatchReport(outcomes=tuple(outcomes), out=out, notes=tuple(notes))
+    return _run(paths, _identify_and_write, options, out=out, jobs=jobs, progress=progress)
 
 
 def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",
@@ -145,17 +151,9 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     batch.NothingToDo
         When no trial file is found.
     """
-    files = batch.discover(paths)
-    names, notes = batch.output_names(files)
-    out = Path(out)
     options = {"protocol": protocol or Protocol(), "seed": seed, "pdf": pdf, "overwrite": overwrite,
                "reference": reference}
-    jobs_list = [batch.BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
-    worker = functools.partial(batch.run_one, analyse_and_write=_analyse_and_write)
-    outcomes = batch.run_jobs(jobs_list, worker, n_jobs=jobs, progress=progress)
-    out.mkdir(parents=True, exist_ok=True)
-    batch.write_summary_csv(out / "summary.csv", outcomes)
-    return BatchReport(outcomes=tuple(outcomes), out=out, notes=tuple(notes))
+    return _run(paths, _analyse_and_write, options, out=out, jobs=jobs, progress=progress)
 
 
 def check_reference(path: str | Path):

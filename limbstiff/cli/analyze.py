@@ -2,21 +2,17 @@
 
 from __future__ import annotations
 
-import os
-import sys
-
 import click
 
-from .options import (EXIT_USAGE, load_protocol_or_default, out_option, protocol_option,
-                      reports_errors, seed_option)
+from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
+                      progress_line, protocol_option, reports_errors, seed_option)
 
 
 @click.command("analyze")
 @click.argument("paths", nargs=-1, required=True)
 @protocol_option
 @out_option("limbstiff-out")
-@click.option("--jobs", type=click.IntRange(min=1), default=None,
-              help="Trials analysed in parallel (default: number of cores).")
+@jobs_option
 @seed_option
 @click.option("--no-pdf", is_flag=True, help="Do not write report.pdf.")
 @click.option("--inertia", type=click.FloatRange(min=0, min_open=True), default=None,
@@ -29,7 +25,7 @@ from .options import (EXIT_USAGE, load_protocol_or_default, out_option, protocol
               help="Estimator (default kalman: Kalman filter and RTS smoother).")
 @click.option("--reference", "reference_path", type=click.Path(dir_okay=False), default=None,
               help="Calibration JSON from 'limbstiff calibrate', used as reference stiffness.")
-@click.option("--overwrite", is_flag=True, help="Replace outputs that already exist.")
+@overwrite_option
 @reports_errors
 def command(paths, protocol_path, out, jobs, seed, no_pdf, inertia, damping, observer_gain, estimator,
             reference_path, overwrite):
@@ -39,16 +35,5 @@ def command(paths, protocol_path, out, jobs, seed, no_pdf, inertia, damping, obs
     protocol = load_protocol_or_default(protocol_path).override(
         inertia=inertia, damping=damping, observer_gain=observer_gain, estimator=estimator)
     reference = check_reference(reference_path) if reference_path else None
-
-    def progress(outcome, done, total):
-        mark = "ok" if outcome.status == "ok" else f"FAILED: {outcome.error}"
-        click.echo(f"[{done}/{total}] {outcome.trial}: {mark}", err=True)
-
-    report = analyze_files(paths, protocol=protocol, out=out, jobs=jobs or os.cpu_count() or 1, seed=seed,
-                           pdf=not no_pdf, overwrite=overwrite, reference=reference,
-                           progress=progress)
-    for note in report.notes:
-        click.echo(f"limbstiff: note: {note}", err=True)
-    n = len(report.outcomes)
-    click.echo(f"{n - report.n_failed} of {n} trials done; outputs in {report.out}", err=True)
-    sys.exit(report.exit_status if n else EXIT_USAGE)
+    finish(analyze_files(paths, protocol=protocol, out=out, jobs=n_jobs(jobs), seed=seed, pdf=not no_pdf,
+                         overwrite=overwrite, reference=reference, progress=progress_line))

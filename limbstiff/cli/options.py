@@ -18,6 +18,32 @@ seed_option = click.option("--seed", type=int, default=0, show_default=True,
                            help="Seed of every random draw (recorded in the outputs).")
 
 
+jobs_option = click.option("--jobs", type=click.IntRange(min=1), default=None,
+                           help="Trials run in parallel processes (default: number of cores).")
+overwrite_option = click.option("--overwrite", is_flag=True, help="Replace outputs that already exist.")
+
+
+def progress_line(outcome, done, total):
+    """One plain progress line per finished trial, on stderr."""
+    mark = "ok" if outcome.status == "ok" else f"FAILED: {outcome.error}"
+    click.echo(f"[{done}/{total}] {outcome.trial}: {mark}", err=True)
+
+
+def finish(report):
+    """Say how the batch went and exit with INTERFACE.md's status."""
+    for note in report.notes:
+        click.echo(f"limbstiff: note: {note}", err=True)
+    n = len(report.outcomes)
+    click.echo(f"{n - report.n_failed} of {n} trials done; outputs in {report.out}", err=True)
+    sys.exit(report.exit_status if n else EXIT_USAGE)
+
+
+def n_jobs(jobs):
+    """``--jobs`` or the number of cores."""
+    import os
+    return jobs or os.cpu_count() or 1
+
+
 def out_option(default: str):
     return click.option("--out", "out", type=click.Path(file_okay=False), default=default,
                         show_default=True, help="Output folder.")
