@@ -113,10 +113,12 @@ def _mechanics(trial, protocol, sig, motion, ci_level, rng, seed):
     guess = identify.least_squares(f, y[0], y[1], y[2], sample_period=trial.sample_period,
                                    window=IDENTIFY_PERIODS / motion)
     decimation = estimators.kalman_decimation(sig)
+    edge = signals.edge_samples(trial.fs, sig.cutoff_hz)
     problem = identify.MechanicsProblem.build(y[0], y[1], y[2], f, sample_period=trial.sample_period,
-                                              decimation=decimation, motion_frequency=motion, guess=guess)
+                                              decimation=decimation, motion_frequency=motion, guess=guess,
+                                              edge=edge)
     fit = identify.kalman_mechanics(y[0], y[1], y[2], f, sample_period=trial.sample_period,
-                                    decimation=decimation, guess=guess, motion_frequency=motion)
+                                    decimation=decimation, guess=guess, motion_frequency=motion, edge=edge)
     post = posterior.sample(problem, start=fit, inertia_prior=protocol.inertia_prior,
                             damping_prior=protocol.damping_prior, rng=rng, seed=seed)
     draws = post.mechanics.copy()
@@ -248,6 +250,8 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     stiffness = estimate.stiffness
     observable = observer.informed(angle[1], observer_gain=gain, sample_period=ts,
                                    window=OBSERVABLE_PERIODS / motion, velocity_threshold=threshold)
+    edge = signals.edge_samples(fs, bandwidth.cutoff_hz)
+    observable[:edge] = observable[len(observable) - edge:] = False     # derivatives unreliable there
     if not np.all(np.isfinite(stiffness)):
         raise TrialError(where, f"the {protocol.discretisation} observer diverged with gain {gain:.3g} "
                                 "(use the exact discretisation or a lower gain)")

@@ -17,7 +17,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from . import observer, smoothing
+from . import observer, signals, smoothing
 
 ESTIMATORS = ("kalman", "observer-smoothed", "observer")
 DEFAULT_ESTIMATOR = "kalman"
@@ -101,9 +101,10 @@ def kalman(sig: Signals, *, motion_frequency: float, inertia: float | None = Non
     measured = _elastic_measurement(sig, inertia, damping) if external else sig.torque[0]
     regressors = (sig.angle[2], sig.angle[1]) if external else ()
     decimation = kalman_decimation(sig)
+    edge = signals.edge_samples(1.0 / sig.sample_period, sig.cutoff_hz)
     fit = smoothing.kalman_stiffness(sig.angle[0], measured, sample_period=sig.sample_period,
                                      decimation=decimation, noise=noise, regressors=regressors,
-                                     motion_frequency=motion_frequency, scale_from=sig.torque[0])
+                                     motion_frequency=motion_frequency, scale_from=sig.torque[0], edge=edge)
     return Estimate(fit.stiffness, fit.variance, -fit.responses if external else None,
                     {"noise_levels": fit.noise.to_dict(), "decimation": decimation,
                      "loglik": fit.loglik})

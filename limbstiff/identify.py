@@ -150,9 +150,9 @@ class MechanicsProblem:
 
     @classmethod
     def build(cls, angle, velocity, acceleration, torque, *, sample_period: float, decimation: int,
-              motion_frequency: float, guess: LeastSquaresFit) -> "MechanicsProblem":
+              motion_frequency: float, guess: LeastSquaresFit, edge: int = 0) -> "MechanicsProblem":
         from . import smoothing
-        idx = np.arange(0, len(angle), decimation)
+        idx = np.arange(edge, len(angle) - edge, decimation)
         restart = np.zeros(len(idx), dtype=bool)
         if len(idx) > MAX_IDENTIFY_STEPS:
             size = MAX_IDENTIFY_STEPS // IDENTIFY_BLOCKS
@@ -190,7 +190,7 @@ class MechanicsProblem:
 
 def kalman_mechanics(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray, torque: np.ndarray,
                      *, sample_period: float, decimation: int, guess: LeastSquaresFit,
-                     motion_frequency: float, max_evaluations: int = 300) -> MechanicsFit:
+                     motion_frequency: float, edge: int = 0, max_evaluations: int = 300) -> MechanicsFit:
     """Inertia and damping under the Kalman model, noise levels by maximum marginal likelihood.
 
     Parameters
@@ -205,6 +205,8 @@ def kalman_mechanics(angle: np.ndarray, velocity: np.ndarray, acceleration: np.n
         Starting point (its residual sets the first guess of the noise levels).
     motion_frequency : float, Hz
         Typical motion frequency (sets the bounds of :func:`smoothing.noise_bounds`).
+    edge : int
+        Samples left out at each end (unreliable derivatives).
     max_evaluations : int
         Likelihood evaluations allowed per start of the search.
 
@@ -215,7 +217,8 @@ def kalman_mechanics(angle: np.ndarray, velocity: np.ndarray, acceleration: np.n
     from . import smoothing
 
     problem = MechanicsProblem.build(angle, velocity, acceleration, torque, sample_period=sample_period,
-                                     decimation=decimation, motion_frequency=motion_frequency, guess=guess)
+                                     decimation=decimation, motion_frequency=motion_frequency, guess=guess,
+                                     edge=edge)
     resid_var = max(guess.residual_sd ** 2, 1e-300)
     duration = problem.step * len(problem.increments)
     start = np.log([resid_var, resid_var / duration, (0.1 * abs(problem.slopes[0]) + 1e-12) ** 2])

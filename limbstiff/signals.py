@@ -225,6 +225,15 @@ def paper_derivatives(x: np.ndarray, fs: float, order: int, *, prefilter_time_co
     return out
 
 
+def edge_samples(fs: float, cutoff_hz: float | None) -> int:
+    """Samples at each end of a trial whose derivatives are not to be trusted.
+
+    The nine-point stencil falls back to one-sided differences over the last four samples,
+    and the zero-phase filter's start-up transient spans about half a period of its corner.
+    """
+    return 4 + (0 if cutoff_hz is None else int(np.ceil(0.5 * fs / cutoff_hz)))
+
+
 def velocity_noise_level(angle: np.ndarray, fs: float, cutoff_hz: float | None) -> float:
     """Standard deviation of the noise in the velocity estimate, rad/s (m/s).
 

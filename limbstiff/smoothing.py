@@ -239,8 +239,8 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
 
 def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: float, decimation: int = 1,
                      noise: NoiseLevels | None = None, regressors: tuple = (),
-                     motion_frequency: float | None = None, scale_from: np.ndarray | None = None
-                     ) -> KalmanStiffness:
+                     motion_frequency: float | None = None, scale_from: np.ndarray | None = None,
+                     edge: int = 0) -> KalmanStiffness:
     """Stiffness course by Kalman filtering and RTS smoothing, noise levels from the data.
 
     Parameters
@@ -263,12 +263,15 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
     scale_from : ndarray, shape (n,), optional
         Torque whose size sets the diffuse initial covariance (default ``measured``); give the
         recorded torque to keep the estimate exactly affine in m and b.
+    edge : int
+        Samples at each end left out (unreliable derivatives); the estimate there is the
+        nearest one inside, with its variance.
 
     Returns
     -------
     KalmanStiffness
     """
-    idx = np.arange(0, len(angle), decimation)
+    idx = np.arange(edge, len(angle) - edge, decimation)
     y, z = angle[idx], measured[idx]
     increments = np.diff(y, prepend=y[0])
     step = sample_period * decimation
