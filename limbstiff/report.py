@@ -51,8 +51,6 @@ def _first_page(fig, result):
     if err and err.get("median") is not None:
         lines.append(("Error vs reference", f"median {100 * err['median']:.2f} %, "
                                             f"90th percentile {100 * err['p90']:.2f} %"))
-    for key, value in s["metadata"].items():
-        lines.append((key, str(value)))
     fig.text(0.08, 0.95, f"Stiffness report — {s['trial']}", fontsize=16, weight="bold")
     y = 0.90
     for label, value in lines:
@@ -64,6 +62,17 @@ def _first_page(fig, result):
     for w in s["warnings"] or ["none"]:
         y -= 0.026
         fig.text(0.10, y, f"• {w}", fontsize=9, wrap=True)
+    # the file's own metadata (subject, side, date…); long machine-written lists are cut
+    meta = list(s["metadata"].items())
+    if meta:
+        y -= 0.04
+        fig.text(0.08, y, "Metadata", fontsize=11, weight="bold")
+        room = max(0, int((y - 0.06) / 0.022))
+        for key, value in meta[:room]:
+            y -= 0.022
+            fig.text(0.10, y, f"{key}: {value}", fontsize=8)
+        if len(meta) > room:
+            fig.text(0.10, y - 0.022, f"… {len(meta) - room} more in summary.json", fontsize=8, style="italic")
     _footer(fig, s)
 
 
