@@ -94,6 +94,25 @@ def _variant(trial: Trial, protocol: Protocol) -> str:
     return variant
 
 
+def _prepare(trial: Trial, protocol: Protocol):
+    """What both :func:`analyze` and :func:`identify_trial` start from.
+
+    Returns
+    -------
+    variant : str
+    angle, torques, bandwidth : see :func:`derivatives`
+    sig : estimators.Signals
+        The angle and the torque of the variant (external or elastic), filtered alike.
+    motion : float, Hz
+        Typical motion frequency.
+    """
+    variant = _variant(trial, protocol)
+    angle, torques, bandwidth = derivatives(trial, protocol)
+    torque = torques["torque"] if variant == "external" else torques["elastic_torque"]
+    sig = estimators.Signals(angle, torque, trial.sample_period, bandwidth.cutoff_hz)
+    return variant, angle, torques, bandwidth, sig, signals.motion_frequency(angle[0], trial.fs)
+
+
 def _mechanics(trial, protocol, sig, motion, ci_level, rng, seed):
     """Inertia and damping: given, or identified (least squares, ML, then the emcee posterior).
 
@@ -117,8 +136,7 @@ def _mechanics(trial, protocol, sig, motion, ci_level, rng, seed):
     problem = identify.MechanicsProblem.build(y[0], y[1], y[2], f, sample_period=trial.sample_period,
                                               decimation=decimation, motion_frequency=motion, guess=guess,
                                               edge=edge)
-    fit = identify.kalman_mechanics(y[0], y[1], y[2], f, sample_period=trial.sample_period,
-                                    decimation=decimation, guess=guess, motion_frequency=motion, edge=edge)
+    fit = identify.kalman_mechanics(problem, guess=guess)
     post = posterior.sample(problem, start=fit, inertia_prior=protocol.inertia_prior,
                             damping_prior=protocol.damping_prior, rng=rng, seed=seed)
     draws = post.mechanics.copy()
@@ -153,13 +171,10 @@ def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int 
         ``posterior`` (:class:`~limbstiff.posterior.Posterior`, None when both are given).
     """
     protocol = protocol or Protocol()
-    where = trial.source or trial.name
-    if _variant(trial, protocol) != "external":
-        raise TrialError(where, "inertia and damping are identified from the external torque; "
-                                "this trial has only the elastic torque (direct variant)")
-    angle, torques, bandwidth = derivatives(trial, protocol)
-    sig = estimators.Signals(angle, torques["torque"], trial.sample_period, bandwidth.cutoff_hz)
-    motion = signals.motion_frequency(angle[0], trial.fs)
+    variant, _, _, _, sig, motion = _prepare(trial, protocol)
+    if variant != "external":
+        raise TrialError(trial.source or trial.name, "inertia and damping are identified from the external "
+                                                     "torque; this trial has only the elastic torque (direct variant)")
     m, b, cov, ident, post = _mechanics(trial, protocol, sig, motion, protocol.ci_level,
                                         np.random.default_rng(seed), seed)
     from . import __version__
@@ -209,20 +224,15 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping,
                                                  observer_gain=observer_gain, estimator=estimator)
     where = trial.source or trial.name
-    variant = _variant(trial, protocol)
     warnings = list(trial.warnings)
-    angle, torques, bandwidth = derivatives(trial, protocol)
+    variant, angle, torques, bandwidth, sig, motion = _prepare(trial, protocol)
     ts, fs = trial.sample_period, trial.fs
-
-    motion = signals.motion_frequency(angle[0], fs)
     range_ = range_of_motion(angle[0])
     if not range_ > 0:
         raise TrialError(where, "no motion: the angle does not change")
     gain = protocol.observer_gain or default_gain(angle[0])
     threshold = VELOCITY_NOISE_MULTIPLE * signals.velocity_noise_level(trial.angle, fs, bandwidth.cutoff_hz)
 
-    torque = torques["torque"] if variant == "external" else torques["elastic_torque"]
-    sig = estimators.Signals(angle, torque, ts, bandwidth.cutoff_hz)
     m = b = ident = post = None
     cov = None
     mech = {}

@@ -18,9 +18,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import observer, signals, smoothing
+from .protocol import ESTIMATORS  # noqa: F401  (the names, defined once with the protocol)
 
-ESTIMATORS = ("kalman", "observer-smoothed", "observer")
-DEFAULT_ESTIMATOR = "kalman"
 #: Kalman steps per period of the low-pass corner: 1.25 puts the step rate at 2.5× the corner,
 #: just above the Nyquist rate of the filtered band, so that the filtered noise is close to
 #: white from step to step as the model assumes. Finer steps let correlated residuals (a

@@ -109,7 +109,6 @@ class MechanicsFit:
     noise : smoothing.NoiseLevels
     loglik : float
         Log marginal likelihood of the noise levels (m and b integrated out, flat prior).
-    decimation : int
     """
 
     inertia: float
@@ -117,7 +116,6 @@ class MechanicsFit:
     covariance: np.ndarray
     noise: "smoothing.NoiseLevels"
     loglik: float
-    decimation: int
 
 
 #: Most filter steps used to identify m, b and the noise levels, and in how many blocks.
@@ -188,25 +186,16 @@ class MechanicsProblem:
         return float(ll), np.array([m, b]), np.array([[c11, c12], [c12, c22]])
 
 
-def kalman_mechanics(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray, torque: np.ndarray,
-                     *, sample_period: float, decimation: int, guess: LeastSquaresFit,
-                     motion_frequency: float, edge: int = 0, max_evaluations: int = 300) -> MechanicsFit:
+def kalman_mechanics(problem: MechanicsProblem, *, guess: LeastSquaresFit,
+                     max_evaluations: int = 300) -> MechanicsFit:
     """Inertia and damping under the Kalman model, noise levels by maximum marginal likelihood.
 
     Parameters
     ----------
-    angle, velocity, acceleration : ndarray, shape (n,), rad, rad/s, rad/s²
-        Low-passed angle and its derivatives.
-    torque : ndarray, shape (n,), N·m
-        Low-passed external torque.
-    sample_period : float, s
-    decimation : int
+    problem : MechanicsProblem
+        The decimated data (:meth:`MechanicsProblem.build`).
     guess : LeastSquaresFit
         Starting point (its residual sets the first guess of the noise levels).
-    motion_frequency : float, Hz
-        Typical motion frequency (sets the bounds of :func:`smoothing.noise_bounds`).
-    edge : int
-        Samples left out at each end (unreliable derivatives).
     max_evaluations : int
         Likelihood evaluations allowed per start of the search.
 
@@ -216,9 +205,6 @@ def kalman_mechanics(angle: np.ndarray, velocity: np.ndarray, acceleration: np.n
     """
     from . import smoothing
 
-    problem = MechanicsProblem.build(angle, velocity, acceleration, torque, sample_period=sample_period,
-                                     decimation=decimation, motion_frequency=motion_frequency, guess=guess,
-                                     edge=edge)
     resid_var = max(guess.residual_sd ** 2, 1e-300)
     duration = problem.step * len(problem.increments)
     start = np.log([resid_var, resid_var / duration, (0.1 * abs(problem.slopes[0]) + 1e-12) ** 2])
@@ -226,4 +212,4 @@ def kalman_mechanics(angle: np.ndarray, velocity: np.ndarray, acceleration: np.n
                                  max_evaluations)
     loglik, mean, cov = problem.conditional(best)
     return MechanicsFit(inertia=float(mean[0]), damping=float(mean[1]), covariance=cov,
-                        noise=smoothing.NoiseLevels(*np.exp(best)), loglik=loglik, decimation=decimation)
+                        noise=smoothing.NoiseLevels(*np.exp(best)), loglik=loglik)

@@ -71,7 +71,6 @@ def test_velocity_threshold_counts_as_rest():
 def test_external_variant_converges_with_known_inertia_and_damping():
     t = np.arange(0, 6, TS)
     w1, w2 = 2 * np.pi * 1.3, 2 * np.pi * 3.1
-    y = 0.01 * np.sin(w1 * t) + 0.005 * np.sin(w2 * t + 1)
     v = 0.01 * w1 * np.cos(w1 * t) + 0.005 * w2 * np.cos(w2 * t + 1)
     acc = -0.01 * w1 ** 2 * np.sin(w1 * t) - 0.005 * w2 ** 2 * np.sin(w2 * t + 1)
     jerk = -0.01 * w1 ** 3 * np.cos(w1 * t) - 0.005 * w2 ** 3 * np.cos(w2 * t + 1)
