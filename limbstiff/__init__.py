@@ -22,6 +22,7 @@ _API = {
     "simulate": "limbstiff.simulate",
     "analyze": "limbstiff.analysis",
     "StiffnessResult": "limbstiff.result",
+    "write_report": "limbstiff.report",
 }
 
 __all__ = ["__version__", *_API]

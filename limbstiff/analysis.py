@@ -278,6 +278,8 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
         "discretisation": protocol.discretisation,
         "derivatives": protocol.derivatives,
         "bandwidth": bandwidth.to_dict(),
+        "torque_quantisation_step": signals.quantisation_step(
+            trial.torque if trial.torque is not None else trial.elastic_torque),
         "motion_frequency_hz": motion,
         "range_of_motion": range_,
         "velocity_threshold": threshold,
@@ -289,4 +291,4 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
         trial=trial, variant=variant, estimator=protocol.estimator, stiffness=stiffness,
         stiffness_lo=stiffness - half, stiffness_hi=stiffness + half, observable=observable,
         inertia=m, damping=b, ci_level=protocol.ci_level, seed=seed, settings=protocol.to_dict(),
-        details=details, warnings=tuple(warnings), reference=reference)
+        details=details, warnings=tuple(warnings), reference=reference, posterior=post)

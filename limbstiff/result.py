@@ -66,6 +66,9 @@ class StiffnessResult:
     warnings : tuple of str
     reference : ndarray, shape (n,), or None
         Reference stiffness (``stiffness_true`` or a calibration), for validation.
+    posterior : posterior.Posterior or None
+        Draws of (m, b, noise levels) when m and b were identified (for the report's pairwise
+        plot); None when both were given or for the direct variant.
     """
 
     trial: Trial
@@ -83,6 +86,7 @@ class StiffnessResult:
     details: Mapping[str, Any] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     reference: np.ndarray | None = None
+    posterior: Any = None
 
     @property
     def observable_fraction(self) -> float:

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .io.atomic import atomic_output
+from .. import __version__
+from ..io.atomic import atomic_output
 
 A4 = (8.27, 11.69)
 
