@@ -23,6 +23,8 @@ _API = {
     "analyze": "limbstiff.analysis",
     "StiffnessResult": "limbstiff.result",
     "write_report": "limbstiff.report",
+    "analyze_files": "limbstiff.pipeline",
+    "identify_files": "limbstiff.pipeline",
 }
 
 __all__ = ["__version__", *_API]

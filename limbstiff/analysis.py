@@ -16,7 +16,7 @@ from scipy import stats
 from . import estimators, identify, observer, posterior, signals, smoothing
 from .errors import TrialError
 from .protocol import Protocol
-from .result import Interval, StiffnessResult
+from .result import Interval, StiffnessResult, software
 from .trial import Trial
 
 #: Default memory of the observer, as a fraction of the range of motion: by (8) the estimate
@@ -177,13 +177,12 @@ def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int 
                                                      "torque; this trial has only the elastic torque (direct variant)")
     m, b, cov, ident, post = _mechanics(trial, protocol, sig, motion, protocol.ci_level,
                                         np.random.default_rng(seed), seed)
-    from . import __version__
     summary = {"trial": trial.name, "source": trial.source, "source_sha256": trial.source_sha256,
                "ci_level": protocol.ci_level, "inertia": m.to_dict(), "damping": b.to_dict(),
                "covariance": cov.tolist(), "units": {k: trial.units[k] for k in ("inertia", "damping")},
                "identification": ident, "mcmc": ident.get("mcmc"), "seed": seed,
                "warnings": list(trial.warnings) + list(ident.get("warnings", [])),
-               "software": {"name": "limbstiff", "version": __version__}, "metadata": dict(trial.metadata)}
+               "software": software(), "metadata": dict(trial.metadata)}
     return {"summary": summary, "posterior": post}
 
 

@@ -9,8 +9,9 @@ from __future__ import annotations
 import csv
 import glob
 import io as _io
+import json
 import os
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
@@ -20,7 +21,10 @@ from .io.atomic import atomic_write_text
 from .io.outputs import SUMMARY_JSON
 
 SUMMARY_COLUMNS = ("trial", "status", "error", "source", "variant", "stiffness_median", "stiffness_lo",
-                   "stiffness_hi", "inertia_median", "damping_median", "observable_fraction", "output")
+                   "stiffness_hi", "inertia_median", "damping_median", "observable_fraction", "resumed",
+                   "output")
+#: Prefix of the ``summary.csv`` columns that carry each trial's metadata (``# key: value`` lines).
+METADATA_PREFIX = "meta."
 
 
 class NothingToDo(LimbstiffError):
@@ -86,6 +90,7 @@ class TrialOutcome:
     status: str
     error: str = ""
     row: dict = field(default_factory=dict)
+    resumed: bool = False
 
 
 @dataclass(frozen=True)
@@ -109,7 +114,8 @@ def run_one(job: BatchJob, analyse_and_write: Callable[[BatchJob], dict]) -> Tri
     except Exception as exc:  # noqa: BLE001 - a batch must survive any one trial
         return TrialOutcome(job.name, str(job.source), "failed",
                             _one_line(f"{job.source}: internal error ({type(exc).__name__}: {exc})"))
-    return TrialOutcome(job.name, str(job.source), "ok", "", summary)
+    resumed = bool(summary.pop("resumed", False))
+    return TrialOutcome(job.name, str(job.source), "ok", "", summary, resumed)
 
 
 def _one_line(text: str) -> str:
@@ -126,13 +132,16 @@ def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome
             if progress:
                 progress(outcomes[i], i + 1, len(jobs))
     else:
-        with ProcessPoolExecutor(max_workers=n_jobs) as pool:
+        pool = ProcessPoolExecutor(max_workers=n_jobs)
+        try:
             futures = {pool.submit(worker, job): i for i, job in enumerate(jobs)}
-            from concurrent.futures import as_completed
             for done, fut in enumerate(as_completed(futures), start=1):
                 outcomes[futures[fut]] = fut.result()
                 if progress:
                     progress(outcomes[futures[fut]], done, len(jobs))
+        finally:
+            # on Ctrl-C, trials not yet started are dropped; finished ones are complete on disk
+            pool.shutdown(wait=True, cancel_futures=True)
     return [o for o in outcomes if o is not None]
 
 
@@ -148,20 +157,43 @@ def summary_row(outcome: TrialOutcome) -> dict:
         "inertia_median": (s.get("inertia") or {}).get("median", ""),
         "damping_median": (s.get("damping") or {}).get("median", ""),
         "observable_fraction": s.get("observable_fraction", ""),
+        "resumed": int(outcome.resumed) if outcome.status == "ok" else "",
         "output": s.get("output", ""),
+        **{METADATA_PREFIX + str(k): v for k, v in (s.get("metadata") or {}).items()},
     }
 
 
 def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome]) -> None:
-    """Write ``summary.csv``, one row per trial, atomically."""
+    """Write ``summary.csv``, one row per trial, atomically.
+
+    The fixed columns (:data:`SUMMARY_COLUMNS`) come first, then one ``meta.<key>`` column per
+    metadata key found in any trial (empty where a trial lacks it), so a spreadsheet can sort
+    and group the trials by subject, condition….
+    """
+    rows = [summary_row(o) for o in outcomes]
+    meta = sorted({k for r in rows for k in r if k.startswith(METADATA_PREFIX)})
     buf = _io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=SUMMARY_COLUMNS, lineterminator="\n")
+    writer = csv.DictWriter(buf, fieldnames=[*SUMMARY_COLUMNS, *meta], lineterminator="\n", restval="")
     writer.writeheader()
-    for o in outcomes:
-        writer.writerow(summary_row(o))
+    writer.writerows(rows)
     atomic_write_text(path, buf.getvalue())
 
 
-def outputs_exist(directory: Path) -> bool:
-    """True when a trial's outputs are already complete in ``directory``."""
-    return (directory / SUMMARY_JSON).exists()
+def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: Iterable[str]) -> dict | None:
+    """The existing summary of a trial whose outputs need not be made again, or None.
+
+    They need not when ``summary.json`` (written last, so present only for a complete trial)
+    records the same input SHA-256 and the same run fingerprint (settings, seed, reference,
+    version), and every file in ``files`` is there.
+    """
+    try:
+        summary = json.loads((directory / SUMMARY_JSON).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(summary, dict):
+        return None
+    if summary.get("source_sha256") != source_sha256 or summary.get("run_sha256") != run_sha256:
+        return None
+    if not all((directory / f).is_file() for f in files):
+        return None
+    return summary

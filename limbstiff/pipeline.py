@@ -7,7 +7,10 @@ command line only parses options and calls it.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import hashlib
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
@@ -15,6 +18,9 @@ from typing import Callable, Sequence
 from . import batch
 from .errors import LimbstiffError
 from .protocol import Protocol
+
+SUMMARY_CSV = "summary.csv"
+OVERVIEW_PDF = "overview.pdf"
 
 
 @dataclass(frozen=True)
@@ -45,40 +51,80 @@ class BatchReport:
         return 1 if self.n_failed else 0
 
 
+def run_fingerprint(protocol: Protocol, *, seed: int, reference=None) -> str:
+    """SHA-256 of everything besides the input that determines a trial's outputs.
+
+    The resolved settings, the seed, the reference curve and limbstiff's version: a trial
+    whose ``summary.json`` records this fingerprint and its input's SHA-256 is up to date.
+    """
+    from . import __version__
+    from .result import _jsonable
+
+    key = {"settings": _jsonable(protocol.to_dict()), "seed": seed, "version": __version__,
+           "reference": None if reference is None else _jsonable(reference.to_dict())}
+    return hashlib.sha256(json.dumps(key, sort_keys=True, default=str).encode("utf-8")).hexdigest()
+
+
+def _clear_or_refuse(job: batch.BatchJob, marker: str) -> None:
+    """Refuse to replace complete outputs without ``--overwrite``; with it, remove ``marker``
+    first, so that the folder reads as incomplete until the new outputs are all written."""
+    if not (job.out / marker).exists():
+        return
+    opts = job.options
+    if not opts["overwrite"]:
+        why = ("were made from another input or other settings" if opts.get("resume")
+               else "already exist")
+        raise LimbstiffError(f"{job.source}: outputs in {job.out} {why} (use --overwrite to replace them)")
+    (job.out / marker).unlink()
+
+
 def _analyse_and_write(job: batch.BatchJob) -> dict:
     """Read, analyse and write one trial (runs in a worker process)."""
     from .analysis import analyze
     from .io import read_trial
-    from .io.outputs import REPORT_PDF, write_result
+    from .io.atomic import sha256_file
+    from .io.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON, write_result
 
     opts = job.options
+    files = [STIFFNESS_CSV, SUMMARY_JSON] + ([REPORT_PDF] if opts["pdf"] else [])
+    if opts.get("resume"):
+        done = batch.up_to_date(job.out, source_sha256=sha256_file(job.source), run_sha256=opts["run_sha256"],
+                                files=files)
+        if done is not None:
+            return dict(done, resumed=True)
+    _clear_or_refuse(job, SUMMARY_JSON)
     protocol: Protocol = opts["protocol"]
-    if batch.outputs_exist(job.out) and not opts["overwrite"]:
-        raise LimbstiffError(f"{job.source}: outputs already exist in {job.out} (use --overwrite)")
     trial = read_trial(job.source, protocol, name=job.name)
     reference = None
     if opts.get("reference") is not None:
         reference = opts["reference"].stiffness(trial.angle)
     result = analyze(trial, protocol, seed=opts["seed"], reference=reference)
-    files = ["stiffness.csv", "summary.json"]
     if opts["pdf"]:
         from .report import write_report
         write_report(result, job.out / REPORT_PDF)
-        files.append(REPORT_PDF)
-    return write_result(result, job.out, extra={"output": str(job.out), "files": files})
+    return write_result(result, job.out, extra={"output": str(job.out), "files": files,
+                                                "run_sha256": opts["run_sha256"]})
 
 
 def _run(paths, work, options, *, out, jobs, progress) -> BatchReport:
-    """Discover the trials, run ``work`` on each (one failure never stops the others), write
-    ``summary.csv``."""
+    """Discover the trials, run ``work`` on each (one failure never stops the others), and keep
+    ``summary.csv`` current after every finished trial, so an interrupted run leaves it true."""
     files = batch.discover(paths)
     names, notes = batch.output_names(files)
     out = Path(out)
-    jobs_list = [batch.BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
-    outcomes = batch.run_jobs(jobs_list, functools.partial(batch.run_one, analyse_and_write=work),
-                              n_jobs=jobs, progress=progress)
     out.mkdir(parents=True, exist_ok=True)
-    batch.write_summary_csv(out / "summary.csv", outcomes)
+    jobs_list = [batch.BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
+    finished: dict[str, batch.TrialOutcome] = {}
+
+    def record(outcome, done, total):
+        finished[outcome.trial] = outcome
+        batch.write_summary_csv(out / SUMMARY_CSV, [finished[n] for n in names if n in finished])
+        if progress:
+            progress(outcome, done, total)
+
+    outcomes = batch.run_jobs(jobs_list, functools.partial(batch.run_one, analyse_and_write=work),
+                              n_jobs=jobs, progress=record)
+    batch.write_summary_csv(out / SUMMARY_CSV, outcomes)
     return BatchReport(outcomes=tuple(outcomes), out=out, notes=tuple(notes))
 
 
@@ -91,8 +137,7 @@ def _identify_and_write(job: batch.BatchJob) -> dict:
     from .result import _jsonable
 
     opts = job.options
-    if (job.out / "posterior.json").exists() and not opts["overwrite"]:
-        raise LimbstiffError(f"{job.source}: outputs already exist in {job.out} (use --overwrite)")
+    _clear_or_refuse(job, "posterior.json")
     trial = read_trial(job.source, opts["protocol"], name=job.name)
     out = identify_trial(trial, opts["protocol"], seed=opts["seed"])
     job.out.mkdir(parents=True, exist_ok=True)
@@ -117,14 +162,14 @@ def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
 
 def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",
                   jobs: int = 1, seed: int = 0, pdf: bool = True, overwrite: bool = False,
-                  reference=None,
+                  resume: bool = False, reference=None, sort_by: Sequence[str] = (),
                   progress: Callable[[batch.TrialOutcome, int, int], None] | None = None) -> BatchReport:
     """Analyse every trial named by ``paths`` and write the outputs of INTERFACE.md section 4.
 
     Parameters
     ----------
     paths : sequence of str
-        Files, folders (searched for ``*.csv``) or globs.
+        Files, folders (searched for trial files) or globs.
     protocol : Protocol, optional
         Resolved settings (file plus overrides).
     out : str or Path
@@ -134,11 +179,16 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     seed : int
         Seed of every random draw.
     pdf : bool
-        Write ``report.pdf`` per trial.
+        Write ``report.pdf`` per trial and ``overview.pdf`` for the batch.
     overwrite : bool
         Replace outputs that already exist.
+    resume : bool
+        Skip trials whose complete outputs record the same input SHA-256 and run fingerprint
+        (:func:`run_fingerprint`); trials left incomplete by an interrupted run are redone.
     reference : SpringCalibration, optional
         Reference stiffness curve from ``limbstiff calibrate``.
+    sort_by : sequence of str
+        Metadata keys (``subject``, ``condition``…) that order and group ``overview.pdf``.
     progress : callable, optional
         Called as ``progress(outcome, done, total)`` after each trial.
 
@@ -151,9 +201,28 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     batch.NothingToDo
         When no trial file is found.
     """
-    options = {"protocol": protocol or Protocol(), "seed": seed, "pdf": pdf, "overwrite": overwrite,
-               "reference": reference}
-    return _run(paths, _analyse_and_write, options, out=out, jobs=jobs, progress=progress)
+    protocol = protocol or Protocol()
+    options = {"protocol": protocol, "seed": seed, "pdf": pdf, "overwrite": overwrite, "resume": resume,
+               "reference": reference, "run_sha256": run_fingerprint(protocol, seed=seed, reference=reference)}
+    report = _run(paths, _analyse_and_write, options, out=out, jobs=jobs, progress=progress)
+    if pdf:
+        report = _overview(report, protocol, sort_by)
+    return report
+
+
+def _overview(report: BatchReport, protocol: Protocol, sort_by: Sequence[str]) -> BatchReport:
+    """Write ``overview.pdf``; a failure here is a note, never a lost batch."""
+    from .report import write_batch_overview
+
+    rows = [o.row if o.status == "ok" else {"trial": o.trial, "status": "failed", "error": o.error}
+            for o in report.outcomes]
+    try:
+        write_batch_overview(rows, report.out / OVERVIEW_PDF, sort_by=list(sort_by) or None,
+                             ci_level=protocol.ci_level)
+    except Exception as exc:  # noqa: BLE001 - the trials are done; say why the overview is missing
+        note = f"{report.out / OVERVIEW_PDF} not written ({type(exc).__name__}: {exc})"
+        return dataclasses.replace(report, notes=report.notes + (" ".join(note.split()),))
+    return report
 
 
 def check_reference(path: str | Path):

@@ -14,6 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import __version__
+from .provenance import dependency_versions, settings_hash
 from .trial import Trial
 
 
@@ -155,11 +156,19 @@ class StiffnessResult:
             "warnings": list(self.warnings),
             "units": dict(trial.units),
             "seed": self.seed,
-            "software": {"name": "limbstiff", "version": __version__},
+            "software": software(),
             "metadata": dict(trial.metadata),
             "details": _jsonable(self.details),
             "settings": _jsonable(self.settings),
+            "settings_sha256": settings_hash(_jsonable(self.settings), length=64),
         }
+
+
+def software() -> dict:
+    """limbstiff's name and version, the Python version and the dependencies' versions."""
+    import platform
+    return {"name": "limbstiff", "version": __version__, "python": platform.python_version(),
+            "dependencies": dependency_versions()}
 
 
 def _jsonable(value):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
-                      progress_line, protocol_option, reports_errors, seed_option)
+                      protocol_option, reports_errors, seed_option)
 
 
 @click.command("analyze")
@@ -25,15 +25,22 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
               help="Estimator (default kalman: Kalman filter and RTS smoother).")
 @click.option("--reference", "reference_path", type=click.Path(dir_okay=False), default=None,
               help="Calibration JSON from 'limbstiff calibrate', used as reference stiffness.")
+@click.option("--sort-by", default="", metavar="KEY[,KEY...]",
+              help="Metadata keys (subject, condition…) that order and group overview.pdf.")
 @overwrite_option
+@click.option("--resume", is_flag=True,
+              help="Skip trials whose outputs are complete and match the input's SHA-256 and the settings.")
 @reports_errors
 def command(paths, protocol_path, out, jobs, seed, no_pdf, inertia, damping, observer_gain, estimator,
-            reference_path, overwrite):
+            reference_path, sort_by, overwrite, resume):
     """Estimate the stiffness of every trial in PATHS (files, folders, globs)."""
     from ..pipeline import analyze_files, check_reference
+    from .progress import Progress
 
     protocol = load_protocol_or_default(protocol_path).override(
         inertia=inertia, damping=damping, observer_gain=observer_gain, estimator=estimator)
     reference = check_reference(reference_path) if reference_path else None
+    keys = [k.strip() for k in sort_by.split(",") if k.strip()]
     finish(analyze_files(paths, protocol=protocol, out=out, jobs=n_jobs(jobs), seed=seed, pdf=not no_pdf,
-                         overwrite=overwrite, reference=reference, progress=progress_line))
+                         overwrite=overwrite, resume=resume, reference=reference, sort_by=keys,
+                         progress=Progress()))

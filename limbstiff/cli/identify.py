@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
-                      progress_line, protocol_option, reports_errors, seed_option)
+                      protocol_option, reports_errors, seed_option)
 
 
 @click.command("identify")
@@ -18,7 +18,8 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 @reports_errors
 def command(paths, protocol_path, out, jobs, seed, overwrite):
     """Identify inertia and damping of every trial in PATHS; write posterior.json and draws.csv."""
+    from .progress import Progress
     from ..pipeline import identify_files
 
     finish(identify_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, jobs=n_jobs(jobs),
-                          seed=seed, overwrite=overwrite, progress=progress_line))
+                          seed=seed, overwrite=overwrite, progress=Progress()))

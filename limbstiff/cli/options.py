@@ -23,18 +23,14 @@ jobs_option = click.option("--jobs", type=click.IntRange(min=1), default=None,
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace outputs that already exist.")
 
 
-def progress_line(outcome, done, total):
-    """One plain progress line per finished trial, on stderr."""
-    mark = "ok" if outcome.status == "ok" else f"FAILED: {outcome.error}"
-    click.echo(f"[{done}/{total}] {outcome.trial}: {mark}", err=True)
-
-
 def finish(report):
     """Say how the batch went and exit with INTERFACE.md's status."""
     for note in report.notes:
         click.echo(f"limbstiff: note: {note}", err=True)
     n = len(report.outcomes)
-    click.echo(f"{n - report.n_failed} of {n} trials done; outputs in {report.out}", err=True)
+    resumed = sum(getattr(o, "resumed", False) for o in report.outcomes)
+    skipped = f" ({resumed} up to date, skipped)" if resumed else ""
+    click.echo(f"{n - report.n_failed} of {n} trials done{skipped}; outputs in {report.out}", err=True)
     sys.exit(report.exit_status if n else EXIT_USAGE)
 
 

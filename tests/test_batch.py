@@ -1,0 +1,125 @@
+"""Batch runs for lab pipelines: resume after a killed run, parallel equals serial, progress."""
+
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pandas as pd
+from click.testing import CliRunner
+
+from limbstiff.batch import TrialOutcome
+from limbstiff.cli import main
+from limbstiff.cli.progress import Progress
+
+
+def run(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def _folder(trial_file, tmp_path, n, **kw):
+    folder = tmp_path / "trials"
+    folder.mkdir()
+    for i in range(n):
+        trial_file(f"t{i}", folder=folder, seed=i, **kw)
+    return folder
+
+
+def _complete(directory, n_samples):
+    """A trial folder whose summary.json exists holds a whole stiffness.csv and valid JSON."""
+    summary = json.loads((directory / "summary.json").read_text())
+    frame = pd.read_csv(directory / "stiffness.csv")
+    return summary["n_samples"] == n_samples and len(frame) == n_samples and frame.notna().all().all()
+
+
+def test_resume_after_a_killed_batch(trial_file, tmp_path):
+    folder = _folder(trial_file, tmp_path, 6, duration=4.0)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "limbstiff", "analyze", str(folder), "--out", str(out), "--no-pdf", "--jobs", "1"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    deadline = time.monotonic() + 240
+    while len(list(out.glob("*/summary.json"))) < 2 and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)          # the hardest interruption: no clean-up at all
+    proc.wait()
+    done = sorted(p.parent.name for p in out.glob("*/summary.json"))
+    assert 2 <= len(done) < 6, "the batch should have been killed mid-run"
+    # every finished trial is complete, and summary.csv (rewritten after each trial) lists them
+    assert all(_complete(out / name, 2000) for name in done)
+    table = pd.read_csv(out / "summary.csv")
+    assert set(done) <= set(table["trial"]) and set(table["status"]) == {"ok"}
+    stamps = {name: (out / name / "summary.json").stat().st_mtime_ns for name in done}
+
+    res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume")
+    assert res.exit_code == 0, res.output
+    assert f"({len(done)} up to date, skipped)" in res.output
+    assert all((out / name / "summary.json").stat().st_mtime_ns == stamps[name] for name in done)
+    assert all(_complete(out / f"t{i}", 2000) for i in range(6))
+    table = pd.read_csv(out / "summary.csv")
+    assert list(table["trial"]) == [f"t{i}" for i in range(6)] and set(table["status"]) == {"ok"}
+    assert sorted(table.loc[table["resumed"] == 1, "trial"]) == done
+
+
+def test_resume_redoes_a_changed_input_only_with_overwrite(trial_file, tmp_path):
+    folder = _folder(trial_file, tmp_path, 2)
+    out = tmp_path / "out"
+    assert run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1).exit_code == 0
+    trial_file("t1", folder=folder, seed=7)                    # same name, new content
+    res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume")
+    assert res.exit_code == 1
+    assert "t1.csv: outputs in" in res.output and "another input or other settings" in res.output
+    res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume", "--overwrite")
+    assert res.exit_code == 0 and "(1 up to date, skipped)" in res.output
+    assert json.loads((out / "t1" / "summary.json").read_text())["metadata"]["seed"] == "7"
+    # other settings are another run: a changed seed is not "up to date"
+    res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume", "--seed", 3)
+    assert res.exit_code == 1 and res.output.count("another input or other settings") == 2
+
+
+def test_parallel_output_is_identical_to_serial(trial_file, tmp_path):
+    folder = _folder(trial_file, tmp_path, 3)
+    outs = {jobs: tmp_path / f"out{jobs}" for jobs in (1, 2)}
+    for jobs, out in outs.items():
+        res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", jobs)
+        assert res.exit_code == 0, res.output
+    for i in range(3):
+        a, b = (outs[j] / f"t{i}" for j in (1, 2))
+        assert (a / "stiffness.csv").read_bytes() == (b / "stiffness.csv").read_bytes()
+        sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+        assert sa.pop("output") != sb.pop("output")
+        assert sa == sb
+    ta, tb = (pd.read_csv(o / "summary.csv").drop(columns="output") for o in outs.values())
+    pd.testing.assert_frame_equal(ta, tb)
+
+
+def test_summary_csv_carries_metadata_columns(trial_file, tmp_path):
+    out = tmp_path / "out"
+    assert run("analyze", trial_file("t1"), "--out", out, "--no-pdf").exit_code == 0
+    table = pd.read_csv(out / "summary.csv")
+    assert table["meta.subject"][0] == "S01" and table["resumed"][0] == 0
+
+
+def _outcome(name, status="ok", error=""):
+    return TrialOutcome(name, f"{name}.csv", status, error)
+
+
+def test_progress_plain_lines_when_not_a_terminal():
+    stream = io.StringIO()
+    progress = Progress(stream)                                # StringIO is not a terminal
+    progress(_outcome("a"), 1, 2)
+    progress(_outcome("b", "failed", "b.csv: no motion"), 2, 2)
+    assert stream.getvalue() == "[1/2] a: ok\n[2/2] b: FAILED: b.csv: no motion\n"
+
+
+def test_progress_bar_on_a_terminal():
+    stream = io.StringIO()
+    progress = Progress(stream, bar=True)
+    progress(_outcome("a"), 1, 4)
+    progress(_outcome("b", "failed", "b.csv: no motion"), 2, 4)
+    text = stream.getvalue()
+    assert "\r[" in text and "1/4 trials" in text and "2/4 trials, 1 failed" in text
+    assert "b: FAILED: b.csv: no motion\n" in text               # failures stay readable above the bar
+    assert "\n" not in text.split("b.csv: no motion\n")[1]      # the bar redraws in place
