@@ -1,6 +1,7 @@
 """Protocols: one TOML file per experimental set-up, read into a frozen :class:`Protocol`.
 
-A protocol says how to read a lab's files (column names, units, scale and sign), which
+A protocol says how to read a lab's files (column names, units, scale and sign; delimiter,
+decimal mark and unit row of text files; sample rate of MAT files without time), which
 observer variant and estimator to run, the observer gain and derivative-filter settings, and
 what is known of inertia and damping (fixed values or priors). Every setting left out takes
 the default documented on :class:`Protocol`; ``None`` means "derive it from the data".
@@ -23,6 +24,8 @@ ESTIMATORS = ("kalman", "observer-smoothed", "observer")
 DISCRETISATIONS = ("exact", "euler")
 DERIVATIVES = ("zero-phase", "paper")
 PRIOR_DISTRIBUTIONS = ("lognormal", "halfnormal", "uniform")
+DELIMITERS = ("auto", ",", ";", "\t")
+DECIMALS = ("auto", ".", ",")
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,18 @@ class Protocol:
         How each quantity (``time``, ``angle``, ``torque``, ``elastic_torque``,
         ``stiffness_true``) is found in the files; quantities not listed use the standard
         ``<quantity>_<unit>`` headers.
+    delimiter : {"auto", ",", ";", "\\t"}
+        Field separator of text files; ``auto`` detects it from the header line (``"tab"``
+        is accepted for ``"\\t"``).
+    decimal : {"auto", ".", ","}
+        Decimal mark of text files; ``auto`` takes ``,`` for semicolon-separated files whose
+        numbers are written with a comma (``1,25``), else ``.``.
+    unit_row : bool or "auto"
+        Whether text files have a row of units under the header (``s``, ``deg``, ``Nm``…);
+        ``auto`` detects it.
+    sample_rate_hz : float or None, Hz
+        Sampling rate of MAT files that have no time variable (the time base is then built
+        from it); None: such files must carry their own rate (a scalar ``fs`` variable).
     variant : {"auto", "external", "direct"}
         Observer variant; ``auto`` takes ``direct`` when an elastic torque is recorded.
     estimator : str
@@ -119,6 +134,10 @@ class Protocol:
     description: str = ""
     source: str | None = None
     columns: Mapping[str, Column] = field(default_factory=dict)
+    delimiter: str = "auto"
+    decimal: str = "auto"
+    unit_row: bool | str = "auto"
+    sample_rate_hz: float | None = None
     variant: str = "auto"
     estimator: str = "kalman"
     observer_gain: float | None = None
@@ -162,6 +181,8 @@ class Protocol:
 
 # TOML layout: section -> {key in file: Protocol field}
 _SECTIONS = {
+    "format": {"delimiter": "delimiter", "decimal": "decimal", "unit_row": "unit_row",
+               "sample_rate_hz": "sample_rate_hz"},
     "observer": {"variant": "variant", "estimator": "estimator", "gain": "observer_gain",
                  "discretisation": "discretisation"},
     "signals": {"derivatives": "derivatives", "bandwidth_hz": "bandwidth_hz",
@@ -172,7 +193,7 @@ _SECTIONS = {
     "report": {"ci_level": "ci_level"},
 }
 # Settings for which "auto" (None) means: derive from each trial's data.
-_AUTO = {"observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping"}
+_AUTO = {"observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping", "sample_rate_hz"}
 _TOP = {"name", "description", "columns", "priors", *_SECTIONS}
 
 
@@ -277,8 +298,9 @@ def _check(p: Protocol) -> None:
                           ("discretisation", DISCRETISATIONS), ("derivatives", DERIVATIVES)):
         if getattr(p, name) not in allowed:
             raise ProtocolError(where, f"'{name}' must be one of {', '.join(allowed)}, not {getattr(p, name)!r}")
-    for name in ("observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping"):
+    for name in ("observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping", "sample_rate_hz"):
         _positive(p, name)
+    _check_format(p, where)
     for name in ("prefilter_time_constant", "dirty_derivative_time_constant"):
         _positive(p, name, allow_none=False)
     if p.inertia_range is not None:
@@ -297,6 +319,19 @@ def _check(p: Protocol) -> None:
             raise ProtocolError(where, f"unknown unit '{column.unit}' for {quantity} in [columns.{quantity}]")
         if column.scale == 0 or column.scale != column.scale:
             raise ProtocolError(where, f"'scale' of [columns.{quantity}] must be a non-zero number")
+
+
+def _check_format(p: Protocol, where) -> None:
+    if p.delimiter == "tab":
+        object.__setattr__(p, "delimiter", "\t")
+    for name, allowed in (("delimiter", DELIMITERS), ("decimal", DECIMALS)):
+        if getattr(p, name) not in allowed:
+            shown = ", ".join(repr(a) for a in allowed)
+            raise ProtocolError(where, f"'{name}' in [format] must be one of {shown}, not {getattr(p, name)!r}")
+    if p.unit_row not in (True, False, "auto") or not isinstance(p.unit_row, (bool, str)):
+        raise ProtocolError(where, f"'unit_row' in [format] must be true, false or \"auto\", not {p.unit_row!r}")
+    if p.delimiter == "," and p.decimal == ",":
+        raise ProtocolError(where, "[format] delimiter and decimal cannot both be ','")
 
 
 def _check_prior(where, label, prior: Prior) -> None:

@@ -249,7 +249,7 @@ def test_not_utf8(tmp_path):
     ("# subject: S01\n# side: left\n", "no header row"),
     ("time_s,angle_rad,torque_Nm\n", "no data rows below the header"),
     ("time_s,time_s,angle_rad,torque_Nm\n0,0,0,0\n", "duplicated column header 'time_s' (columns 1 and 2)"),
-    ("time_s;angle_rad;torque_Nm\n0;0;0\n", "not comma-separated (it uses ';')"),
+    ("time_s angle_rad torque_Nm\n0 0 0\n", "separate the fields with commas, tabs or semicolons"),
 ])
 def test_bad_structure(tmp_path, content, phrase):
     path = tmp_path / "bad.csv"

@@ -1,14 +1,26 @@
-"""Input and output: trial CSV files, units, atomic writes and file hashes.
+"""Input and output: trial files (CSV, TSV, MAT), units, atomic writes and file hashes.
 
-Scope: everything that touches trial files on disk (:func:`read_trial`, :func:`write_trial`),
-the explicit unit table (:data:`UNITS`) and the atomic-write helpers every output goes through.
+Scope: everything that touches trial files on disk (:func:`read_trial` for every accepted
+format, :func:`write_trial` for the standard CSV), the explicit unit table (:data:`UNITS`)
+and the atomic-write helpers every output goes through.
+
+| module | job |
+|---|---|
+| ``read.py`` | :func:`read_trial`: the reader chosen by extension |
+| ``text.py`` | CSV, TSV, semicolon-separated text (decimal comma, unit row) |
+| ``mat.py`` | MATLAB ``.mat`` files (v4–v7) |
+| ``columns.py`` | which column or variable fills which quantity, in which unit |
+| ``validate.py`` | the common checks: time, gaps, length, motion, resampling, SHA-256 |
+| ``units.py`` | the unit table and standard ``<quantity>_<unit>`` names |
+| ``csv.py`` | :func:`write_trial` |
 """
 
 from __future__ import annotations
 
 from .atomic import atomic_output, atomic_write_bytes, atomic_write_text, sha256_file
-from .csv import read_trial, write_trial
+from .csv import write_trial
+from .read import EXTENSIONS, read_trial
 from .units import UNITS
 
-__all__ = ["read_trial", "write_trial", "UNITS", "atomic_write_text", "atomic_write_bytes",
+__all__ = ["read_trial", "write_trial", "EXTENSIONS", "UNITS", "atomic_write_text", "atomic_write_bytes",
            "atomic_output", "sha256_file"]

@@ -1,9 +1,10 @@
-"""Units of trial columns: the unit table, standard headers, column resolution, SI conversion.
+"""Units of trial columns: the unit table, standard headers, SI conversion.
 
 Pure functions, no I/O. A standard header is ``<quantity>_<unit>`` (``time_ms``,
 ``angle_deg``, ``stiffness_true_Nm_per_rad``); :func:`parse_standard_header` splits it,
 :func:`to_si` converts a column to SI units. Only the units listed in :data:`UNITS` are
 accepted: there is no guessing, so a misspelt unit is an error rather than a wrong number.
+Which column of a file fills which quantity is decided in :mod:`limbstiff.io.columns`.
 """
 
 from __future__ import annotations
@@ -15,7 +16,6 @@ from typing import Mapping, NamedTuple
 
 import numpy as np
 
-from ..errors import TrialError
 
 
 class Unit(NamedTuple):
@@ -80,32 +80,6 @@ FIELD_DIMENSIONS: Mapping[str, tuple[str, ...]] = MappingProxyType({
 
 #: Trial fields, in the order they are read and written.
 FIELDS = ("time", "angle", "torque", "elastic_torque", "stiffness_true")
-_LABELS = {"time": "time", "angle": "angle/position", "torque": "torque/force",
-           "elastic_torque": "elastic torque/force", "stiffness_true": "reference stiffness"}
-
-
-class ColumnSpec(NamedTuple):
-    """Where one Trial field is read from.
-
-    Parameters
-    ----------
-    field : str
-        Trial field (see :data:`FIELDS`).
-    header : str
-        Column header in the file.
-    index : int
-        0-based column index.
-    unit : str
-        Unit of the values in the file (a key of :data:`UNITS`).
-    scale : float
-        Factor applied after conversion to SI units.
-    """
-
-    field: str
-    header: str
-    index: int
-    unit: str
-    scale: float
 
 
 class Standard(NamedTuple):
@@ -233,108 +207,20 @@ def to_si(values: np.ndarray, unit: str) -> np.ndarray:
     return values if factor == 1.0 else values * factor
 
 
-def resolve_columns(where: str, headers: list[str], protocol=None) -> dict[str, ColumnSpec]:
-    """Decide which column gives each :class:`~limbstiff.trial.Trial` field, in which unit.
-
-    A quantity listed in ``protocol.columns`` with a ``header`` is read from that column (its
-    unit from the protocol, else from the header); every other quantity is looked for among
-    the standard ``<quantity>_<unit>`` headers not claimed by the protocol, its unit and scale
-    still overridable by the protocol.
+def same_unit(a: str, b: str) -> bool:
+    """Whether two unit spellings mean the same unit (``"Nm"`` and ``"N·m"`` do).
 
     Parameters
     ----------
-    where : str
-        File name, for error messages.
-    headers : list of str
-        Column headers of the file, stripped, in order.
-    protocol : Protocol or None
+    a, b : str
+        Unit spellings; spellings not in :data:`UNITS` are the same only if identical.
 
     Returns
     -------
-    dict of str to ColumnSpec
-        By Trial field; always ``time`` and ``angle``, and ``torque`` or ``elastic_torque``.
-
-    Raises
-    ------
-    TrialError
-        A missing column, an unknown or mismatched unit, two columns for one quantity.
+    bool
     """
-    mapped = dict(protocol.columns) if protocol is not None else {}
-    claimed = {spec.header.strip() for spec in mapped.values() if spec.header is not None}
-    found = ", ".join(h for h in headers if h) or "none"
-    columns: dict[str, ColumnSpec] = {}
-    for field in FIELDS:
-        spec = mapped.get(field)
-        label = _LABELS[field]
-        if spec is not None and spec.header is not None:
-            header = spec.header.strip()
-            if header not in headers:
-                raise TrialError(where, f"column '{header}' given by the protocol for {label} is not "
-                                        f"in the file (headers found: {found})")
-            unit = spec.unit or unit_in_header(header)
-            if unit is None:
-                raise TrialError(where, f"column '{header}' ({label}) has no unit in its name; "
-                                        f"give one in the protocol ([columns.{field}] unit)")
-            _check_unit(where, header, unit, label, FIELD_DIMENSIONS[field])
-            other = [_LABELS[c.field] for c in columns.values() if c.header == header]
-            if other:
-                raise TrialError(where, f"column '{header}' is given by the protocol for both "
-                                        f"{other[0]} and {label}")
-            columns[field] = ColumnSpec(field, header, headers.index(header), unit, spec.scale)
-            continue
-        candidates = []
-        for index, header in enumerate(headers):
-            parsed = parse_standard_header(header) if header not in claimed else None
-            if parsed and STANDARD_QUANTITIES[parsed[0]].field == field:
-                candidates.append((index, header, *parsed))
-        if not candidates:
-            continue
-        if len(candidates) > 1:
-            names = " and ".join(f"'{c[1]}'" for c in candidates)
-            if len({c[2] for c in candidates}) > 1:
-                raise TrialError(where, f"mixes rotational and translational columns ({names})")
-            raise TrialError(where, f"more than one {label} column ({names})")
-        index, header, quantity, unit = candidates[0]
-        if spec is not None and spec.unit:
-            unit = spec.unit
-            _check_unit(where, header, unit, label, FIELD_DIMENSIONS[field])
-        else:
-            _check_unit(where, header, unit, quantity.replace("_", " "),
-                        STANDARD_QUANTITIES[quantity].dimensions, hint=True)
-        columns[field] = ColumnSpec(field, header, index, unit, spec.scale if spec is not None else 1.0)
-    if "time" not in columns:
-        raise TrialError(where, f"no time column (expected time_s or time_ms; headers found: {found})")
-    if "angle" not in columns:
-        raise TrialError(where, "no angle or position column (expected angle_rad, angle_deg, "
-                                f"position_m or position_mm; headers found: {found})")
-    if "torque" not in columns and "elastic_torque" not in columns:
-        raise TrialError(where, "no torque or force column (expected torque_Nm, force_N, "
-                                f"elastic_torque_Nm or elastic_force_N; headers found: {found})")
-    return columns
-
-
-def _check_unit(where, header, unit, label, dimensions, hint=False) -> None:
-    accepted = ", ".join(accepted_units(dimensions))
-    if unit not in UNITS:
-        raise TrialError(where, f"column '{header}': unknown unit '{unit}' for {label} (accepted: {accepted})")
-    if UNITS[unit].dimension not in dimensions:
-        more = "; a protocol can map this column to another quantity" if hint else ""
-        raise TrialError(where, f"column '{header}': unit '{unit}' is not a unit of {label} "
-                                f"(accepted: {accepted}{more})")
-
-
-def joint_kind(where: str, columns: dict[str, ColumnSpec]) -> str:
-    """``rotational`` or ``translational``, from the units of the columns.
-
-    Raises
-    ------
-    TrialError
-        If rotational and translational units are mixed.
-    """
-    kinds = {c.header: DIMENSION_KIND[UNITS[c.unit].dimension] for c in columns.values()}
-    rotational = [h for h, k in kinds.items() if k == "rotational"]
-    translational = [h for h, k in kinds.items() if k == "translational"]
-    if rotational and translational:
-        raise TrialError(where, f"mixes rotational and translational columns "
-                                f"('{rotational[0]}' and '{translational[0]}')")
-    return "rotational" if rotational else "translational"
+    if a == b:
+        return True
+    ua, ub = UNITS.get(a), UNITS.get(b)
+    return (ua is not None and ub is not None and ua.dimension == ub.dimension
+            and math.isclose(ua.factor, ub.factor, rel_tol=1e-12))

@@ -1,0 +1,197 @@
+"""Which column (or variable) of a trial file fills which Trial field, and in which unit.
+
+Pure functions, no I/O, shared by every reader: the delimited-text reader passes its header
+row (and its unit row, if any), the MAT reader its variable names. The rules are those of
+INTERFACE.md section 1: standard ``<quantity>_<unit>`` names are recognised without
+configuration, anything else is mapped by the protocol's ``[columns]`` table.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple, Sequence
+
+from ..errors import TrialError
+from .units import (DIMENSION_KIND, FIELD_DIMENSIONS, FIELDS, STANDARD_QUANTITIES, UNITS,
+                    accepted_units, parse_standard_header, same_unit, unit_in_header)
+
+_LABELS = {"time": "time", "angle": "angle/position", "torque": "torque/force",
+           "elastic_torque": "elastic torque/force", "stiffness_true": "reference stiffness"}
+
+
+class ColumnSpec(NamedTuple):
+    """Where one Trial field is read from.
+
+    Parameters
+    ----------
+    field : str
+        Trial field (see :data:`~limbstiff.io.units.FIELDS`).
+    header : str
+        Column header (or variable name, or MAT path) in the file.
+    index : int
+        0-based position of that header in the list given to :func:`resolve_columns`.
+    unit : str
+        Unit of the values in the file (a key of :data:`~limbstiff.io.units.UNITS`).
+    scale : float
+        Factor applied after conversion to SI units.
+    """
+
+    field: str
+    header: str
+    index: int
+    unit: str
+    scale: float
+
+
+def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
+                    units: Sequence[str | None] | None = None, noun: str = "column",
+                    need_time: bool = True) -> dict[str, ColumnSpec]:
+    """Decide which column gives each :class:`~limbstiff.trial.Trial` field, in which unit.
+
+    A quantity listed in ``protocol.columns`` with a ``header`` is read from that column (its
+    unit from the protocol, else the unit row, else the header); every other quantity is
+    looked for among the standard ``<quantity>_<unit>`` headers not claimed by the protocol —
+    or, with a unit row, among plain quantity headers (``angle`` above ``deg``) — its unit and
+    scale still overridable by the protocol. The protocol's unit overrides the unit in a
+    header's name, but must agree with the unit row: two statements of the unit inside the
+    file, or a protocol contradicting the file's unit row, are an error.
+
+    Parameters
+    ----------
+    where : str
+        File name, for error messages.
+    headers : sequence of str
+        Column headers (or variable names) of the file, stripped, in order.
+    protocol : Protocol or None
+    units : sequence of (str or None), optional
+        The file's unit row, aligned with ``headers`` (None where a cell is empty).
+    noun : str
+        What a header names, for messages (``"column"`` or ``"variable"``).
+    need_time : bool
+        False when the caller builds the time base itself (from a sample rate).
+
+    Returns
+    -------
+    dict of str to ColumnSpec
+        By Trial field; ``time`` (if ``need_time``) and ``angle``, and ``torque`` or
+        ``elastic_torque``.
+
+    Raises
+    ------
+    TrialError
+        A missing column, an unknown or mismatched unit, two columns for one quantity.
+    """
+    mapped = dict(protocol.columns) if protocol is not None else {}
+    claimed = {spec.header.strip() for spec in mapped.values() if spec.header is not None}
+    found = ", ".join(h for h in headers if h) or "none"
+    found = f"{'headers' if noun == 'column' else noun + 's'} found: {found}"
+    row = list(units or ())
+    row += [None] * (len(headers) - len(row))
+    standard = _standard_headers(where, headers, row, claimed, noun)
+    columns: dict[str, ColumnSpec] = {}
+    for field in FIELDS:
+        spec = mapped.get(field)
+        label = _LABELS[field]
+        if spec is not None and spec.header is not None:
+            header = spec.header.strip()
+            if header not in headers:
+                raise TrialError(where, f"{noun} '{header}' given by the protocol for {label} is not "
+                                        f"in the file ({found})")
+            index = list(headers).index(header)
+            named = unit_in_header(header)
+            _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", row[index]))
+            _agree(where, noun, header, ("its name", named), ("the unit row", row[index]))
+            unit = spec.unit or row[index] or named
+            if unit is None:
+                raise TrialError(where, f"{noun} '{header}' ({label}) has no unit in its name; "
+                                        f"give one in the protocol ([columns.{field}] unit)")
+            _check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
+            other = [_LABELS[c.field] for c in columns.values() if c.header == header]
+            if other:
+                raise TrialError(where, f"{noun} '{header}' is given by the protocol for both "
+                                        f"{other[0]} and {label}")
+            columns[field] = ColumnSpec(field, header, index, unit, spec.scale)
+            continue
+        candidates = [(i, q, u) for i, (q, u) in standard.items()
+                      if STANDARD_QUANTITIES[q].field == field]
+        if not candidates:
+            continue
+        if len(candidates) > 1:
+            names = " and ".join(f"'{headers[c[0]]}'" for c in candidates)
+            if len({c[1] for c in candidates}) > 1:
+                raise TrialError(where, f"mixes rotational and translational {noun}s ({names})")
+            raise TrialError(where, f"more than one {label} {noun} ({names})")
+        index, quantity, unit = candidates[0]
+        header = headers[index]
+        if spec is not None and spec.unit:
+            _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", row[index]))
+            unit = spec.unit
+            _check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
+        else:
+            _check_unit(where, noun, header, unit, quantity.replace("_", " "),
+                        STANDARD_QUANTITIES[quantity].dimensions, hint=True)
+        columns[field] = ColumnSpec(field, header, index, unit, spec.scale if spec is not None else 1.0)
+    if need_time and "time" not in columns:
+        raise TrialError(where, f"no time {noun} (expected time_s or time_ms; {found})")
+    if "angle" not in columns:
+        raise TrialError(where, f"no angle or position {noun} (expected angle_rad, angle_deg, "
+                                f"position_m or position_mm; {found})")
+    if "torque" not in columns and "elastic_torque" not in columns:
+        raise TrialError(where, f"no torque or force {noun} (expected torque_Nm, force_N, "
+                                f"elastic_torque_Nm or elastic_force_N; {found})")
+    return columns
+
+
+def _standard_headers(where, headers, row, claimed, noun) -> dict[int, tuple[str, str]]:
+    """(quantity, unit) of every unclaimed standard header, by index.
+
+    A standard name (``angle_deg``) gives both; a plain quantity name (``angle``, any case)
+    is standard when the unit row gives its unit.
+    """
+    out = {}
+    for index, header in enumerate(headers):
+        if header in claimed:
+            continue
+        parsed = parse_standard_header(header)
+        plain = header.strip().lower()
+        if parsed is None and row[index] and plain in STANDARD_QUANTITIES:
+            parsed = (plain, row[index])
+        elif parsed is not None:
+            _agree(where, noun, header, ("its name", parsed[1]), ("the unit row", row[index]))
+        if parsed is not None:
+            out[index] = parsed
+    return out
+
+
+def _agree(where, noun, header, first, second) -> None:
+    """Error if two statements of a column's unit (``(who, unit)``, unit may be None) differ."""
+    (who1, unit1), (who2, unit2) = first, second
+    if unit1 and unit2 and not same_unit(unit1, unit2):
+        raise TrialError(where, f"{noun} '{header}': {who1} says unit '{unit1}', "
+                                f"{who2} says '{unit2}'")
+
+
+def _check_unit(where, noun, header, unit, label, dimensions, hint=False) -> None:
+    accepted = ", ".join(accepted_units(dimensions))
+    if unit not in UNITS:
+        raise TrialError(where, f"{noun} '{header}': unknown unit '{unit}' for {label} (accepted: {accepted})")
+    if UNITS[unit].dimension not in dimensions:
+        more = f"; a protocol can map this {noun} to another quantity" if hint else ""
+        raise TrialError(where, f"{noun} '{header}': unit '{unit}' is not a unit of {label} "
+                                f"(accepted: {accepted}{more})")
+
+
+def joint_kind(where: str, columns: dict[str, ColumnSpec], noun: str = "column") -> str:
+    """``rotational`` or ``translational``, from the units of the columns.
+
+    Raises
+    ------
+    TrialError
+        If rotational and translational units are mixed.
+    """
+    kinds = {c.header: DIMENSION_KIND[UNITS[c.unit].dimension] for c in columns.values()}
+    rotational = [h for h, k in kinds.items() if k == "rotational"]
+    translational = [h for h, k in kinds.items() if k == "translational"]
+    if rotational and translational:
+        raise TrialError(where, f"mixes rotational and translational {noun}s "
+                                f"('{rotational[0]}' and '{translational[0]}')")
+    return "rotational" if rotational else "translational"

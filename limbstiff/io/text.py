@@ -1,0 +1,262 @@
+"""Delimited text trial files: CSV, tab- and semicolon-separated, with an optional unit row.
+
+Scope: the text format of INTERFACE.md section 1 (``# key: value`` metadata lines, one header
+row of ``<quantity>_<unit>`` names or names mapped by a protocol) and its common variants:
+
+- the delimiter (comma, tab or semicolon) is detected from the header line;
+- semicolon-separated files may write numbers with a decimal comma (``1,25``), detected from
+  the data;
+- a row of units may follow the header (``time;angle;torque`` above ``s;deg;Nm``): it is
+  detected when none of its cells is a number and at least one is a known unit, and it turns
+  a plain quantity header (``angle``) into a standard one (``angle_deg``).
+
+The protocol's ``[format]`` settings (``delimiter``, ``decimal``, ``unit_row``) replace the
+detection. Every cell of a used column is checked; nothing is coerced silently.
+"""
+
+from __future__ import annotations
+
+import csv as _csv
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import TrialError
+from ..trial import Trial
+from .columns import ColumnSpec, joint_kind, resolve_columns
+from .units import FIELDS, UNITS, to_si
+from .validate import checked_trial
+
+_NAN_WORDS = {"nan", "-nan", "+nan", "na", "n/a", "#n/a", "null", "none"}
+_PANDAS_LINE = re.compile(r"Expected (\d+) fields in line (\d+), saw (\d+)")
+_DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+(?:[eE][-+]?\d+)?$")
+_QUOTED = re.compile(r'"[^"]*"')
+_NAMES = {",": "','", ";": "';'", "\t": "tabs"}
+#: Data lines looked at to detect a decimal comma.
+_SNIFF_LINES = 50
+
+
+def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None) -> Trial:
+    """Read one delimited text trial (``.csv``, ``.tsv``, ``.txt``) into a checked Trial.
+
+    Parameters
+    ----------
+    path : Path
+        The file, for messages and the default trial name.
+    raw : bytes
+        Its content: UTF-8 text (BOM tolerated), ``# key: value`` metadata lines, one header
+        row, an optional unit row, one row per sample.
+    protocol : Protocol or None
+        Maps headers, units, scales and signs (``columns``); ``delimiter``, ``decimal`` and
+        ``unit_row`` replace the detection; ``sample_period`` (s) resamples.
+    name : str or None
+        Trial name; the file stem if None.
+
+    Returns
+    -------
+    Trial
+        In SI units on a uniform time base.
+
+    Raises
+    ------
+    TrialError
+        With a one-line message naming the file and the problem.
+    """
+    where = str(path)
+    delimiter = getattr(protocol, "delimiter", "auto")
+    decimal = getattr(protocol, "decimal", "auto")
+    unit_row = getattr(protocol, "unit_row", "auto")
+    metadata, header_line, rest = _split(where, _decode(where, raw))
+    if delimiter == "auto":
+        delimiter = _detect_delimiter(header_line)
+    headers = _headers(where, header_line, delimiter, forced=getattr(protocol, "delimiter", "auto") != "auto")
+    units, rest = _unit_row(where, rest, delimiter, unit_row)
+    if not rest:
+        raise TrialError(where, "no data rows below the header")
+    decimal = _detect_decimal(where, rest, delimiter, decimal)
+    columns = resolve_columns(where, headers, protocol, units=units)
+    kind = joint_kind(where, columns)
+    numbers = [n for n, _ in rest]
+    values = _parse(where, headers, columns, [line for _, line in rest], numbers, delimiter, decimal)
+    used = {c.index for c in columns.values()}
+    ignored = [h for i, h in enumerate(headers) if i not in used and h]
+    warnings = ["ignored column(s): " + ", ".join(f"'{h}'" for h in ignored)] if ignored else []
+    return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
+                         warnings=warnings, locate=lambda k: f"line {numbers[k]}")
+
+
+def _decode(where: str, raw: bytes) -> str:
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise TrialError(where, f"not UTF-8 text (byte 0x{raw[exc.start]:02x} at line {line}); "
+                                f"save the file as UTF-8") from None
+    if not text.strip():
+        raise TrialError(where, "empty file")
+    return text
+
+
+def _split(where: str, text: str):
+    """Metadata, the header line, and the non-blank lines below it as (line number, line)."""
+    all_lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    metadata: dict[str, str] = {}
+    for k, line in enumerate(all_lines):
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            key, colon, value = stripped[1:].partition(":")
+            if colon and key.strip():
+                metadata[key.strip()] = value.strip()
+            continue
+        break
+    else:
+        raise TrialError(where, "no header row (only '#' metadata lines)")
+    rest = [(j + 1, all_lines[j]) for j in range(k + 1, len(all_lines)) if all_lines[j].strip()]
+    return metadata, all_lines[k], rest
+
+
+def _detect_delimiter(line: str) -> str:
+    """The most frequent of comma, tab and semicolon outside quotes (comma on a tie)."""
+    bare = _QUOTED.sub("", line)
+    counts = {d: bare.count(d) for d in (",", "\t", ";")}
+    return max(counts, key=lambda d: (counts[d], d == ","))
+
+
+def _cells(line: str, delimiter: str) -> list[str]:
+    return [c.strip() for c in next(_csv.reader([line], delimiter=delimiter))]
+
+
+def _headers(where: str, line: str, delimiter: str, forced: bool) -> list[str]:
+    headers = _cells(line, delimiter)
+    if len(headers) == 1:
+        others = [d for d in (",", ";", "\t") if d != delimiter and d in headers[0]]
+        if forced and others:
+            raise TrialError(where, f"the header has a single column: the file is not separated by "
+                                    f"{_NAMES[delimiter]} as the protocol says (it uses {_NAMES[others[0]]})")
+        if len(headers[0].split()) > 1:
+            raise TrialError(where, f"the header '{headers[0][:40]}' is a single column: separate the "
+                                    f"fields with commas, tabs or semicolons (spaces are not supported)")
+    seen: dict[str, int] = {}
+    for i, h in enumerate(headers):
+        if h and h in seen:
+            raise TrialError(where, f"duplicated column header '{h}' (columns {seen[h] + 1} and {i + 1})")
+        seen[h] = i
+    return headers
+
+
+def _unit_cell(cell: str) -> str | None:
+    """A unit-row cell without brackets (``[deg]`` → ``deg``); None when empty or ``-``."""
+    cell = cell.strip()
+    if len(cell) > 2 and cell[0] + cell[-1] in ("[]", "()"):
+        cell = cell[1:-1].strip()
+    return None if cell in ("", "-") else cell
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell.replace(",", "."))
+    except ValueError:
+        return False
+    return True
+
+
+def _unit_row(where: str, rest, delimiter: str, setting):
+    """The unit row (a list aligned with the headers, or None) and the data lines below it.
+
+    With ``setting == "auto"`` the first line below the header is a unit row when none of its
+    cells is a number and at least one is a known unit.
+    """
+    if not rest or setting is False:
+        return None, rest
+    number, line = rest[0]
+    cells = _cells(line, delimiter)
+    units = [_unit_cell(c) for c in cells]
+    numeric = [c for c in cells if c and _is_number(c)]
+    if setting == "auto" and (numeric or not any(u in UNITS for u in units)):
+        return None, rest
+    if numeric:
+        raise TrialError(where, f"line {number} should be the unit row (the protocol says unit_row = true) "
+                                f"but holds the number '{numeric[0][:20]}'")
+    return units, rest[1:]
+
+
+def _detect_decimal(where: str, rest, delimiter: str, setting: str) -> str:
+    if setting == "auto":
+        if delimiter != ";":
+            return "."
+        sample = (c for _, line in rest[:_SNIFF_LINES] for c in _cells(line, delimiter))
+        return "," if any(_DECIMAL_COMMA.match(c) for c in sample) else "."
+    if setting == "," and delimiter == ",":
+        raise TrialError(where, "the protocol says decimal = ',' but the file is comma-separated")
+    return setting
+
+
+def _parse(where, headers, columns, lines, numbers, delimiter, decimal) -> dict[str, np.ndarray | None]:
+    """Numeric SI arrays of the used columns; every cell checked, none coerced silently."""
+    used = {c.index for c in columns.values()}
+    read = dict(where=where, lines=lines, numbers=numbers, width=len(headers), sep=delimiter, decimal=decimal)
+    try:  # fast path: the used columns parse as floats (no NaN words: na_filter is off)
+        frame = _read_rows(**read, dtype={i: float for i in used})
+    except TrialError:
+        raise
+    except ValueError:  # some cell is not a number: read text, find it and say which
+        frame = _read_rows(**read, dtype=object)
+    values: dict[str, np.ndarray | None] = dict.fromkeys(FIELDS)
+    for field in FIELDS:
+        column = columns.get(field)
+        if column is None:
+            continue
+        numeric = frame[column.index].to_numpy()
+        if numeric.dtype != float or not np.all(np.isfinite(numeric)):
+            cells = frame[column.index].astype(str).str.strip()
+            if decimal == ",":
+                numeric = np.array(pd.to_numeric(cells.str.replace(",", ".", regex=False), errors="coerce"),
+                                   dtype=float)
+                # a point in a decimal-comma file is a mistake (or a thousands mark): never a number
+                numeric[cells.str.contains(".", regex=False).to_numpy()] = np.nan
+            else:
+                numeric = pd.to_numeric(cells, errors="coerce").to_numpy(dtype=float)
+            bad = ~np.isfinite(numeric)
+            if bad.any():
+                k = int(np.flatnonzero(bad)[0])
+                raise TrialError(where, _bad_cell(cells.iloc[k], numeric[k], column, numbers[k],
+                                                  None if field == "time" else values["time"][k], decimal))
+        values[field] = to_si(numeric, column.unit) * column.scale
+    return values
+
+
+def _read_rows(where, lines, numbers, width, sep, decimal, dtype) -> pd.DataFrame:
+    try:
+        return pd.read_csv(io.StringIO("\n".join(lines)), header=None, names=list(range(width)), sep=sep,
+                           decimal=decimal, index_col=False, dtype=dtype, na_filter=False,
+                           skip_blank_lines=False)
+    except pd.errors.ParserError as exc:
+        match = _PANDAS_LINE.search(str(exc))
+        if match:
+            want, line, saw = (int(g) for g in match.groups())
+            raise TrialError(where, f"line {numbers[line - 1]} has {saw} fields, the header has {want}") from None
+        raise TrialError(where, f"cannot parse the rows ({str(exc).splitlines()[-1]})") from None
+
+
+def _bad_cell(cell: str, number: float, column: ColumnSpec, line: int, time: float | None,
+              decimal: str) -> str:
+    at = f"in column '{column.header}' at line {line}"
+    if time is not None:
+        at += f" (t = {time:g} s)"
+    if cell == "":
+        return f"empty cell {at}"
+    if cell.lower() in _NAN_WORDS:
+        return f"NaN {at}"
+    if np.isinf(number):
+        return f"infinite value '{cell}' {at}"
+    if decimal == "," and "." in cell:
+        return f"non-numeric value '{cell[:30]}' {at} (the file uses decimal commas)"
+    if decimal == "." and _DECIMAL_COMMA.match(cell):
+        return (f"non-numeric value '{cell[:30]}' {at} (a decimal comma? set decimal = \",\" "
+                f"in the protocol's [format])")
+    return f"non-numeric value '{cell[:30]}' {at}"

@@ -1,0 +1,157 @@
+"""From named SI arrays to a checked :class:`~limbstiff.trial.Trial`: the one validation path.
+
+Every reader (delimited text, MAT) parses its file into SI arrays by Trial field, checks
+each value is a finite number (it knows where a bad one sits: a line, a sample), and hands
+them to :func:`checked_trial`, which applies the checks and fixes that do not depend on the
+format: time strictly increasing, no gaps, long enough, some motion; snapping of sub-percent
+jitter and resampling of irregular sampling onto a uniform grid; the protocol's sample
+period; the file's SHA-256. Errors are one-line :class:`~limbstiff.errors.TrialError`\\ s.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Callable, Mapping
+
+import numpy as np
+
+from ..errors import TrialError
+from ..trial import MIN_DURATION, MIN_SAMPLES, Trial
+
+#: A time step larger than this many median steps is a gap (an error, never interpolated).
+GAP_FACTOR = 3.0
+#: Steps varying by more than this fraction of the median step are resampled (with a warning);
+#: smaller jitter is snapped to the uniform grid silently.
+JITTER_TOLERANCE = 0.01
+
+
+def read_bytes(path: Path) -> bytes:
+    """The bytes of a trial file, or a one-line :class:`TrialError` saying why not."""
+    where = str(path)
+    try:
+        return path.read_bytes()
+    except FileNotFoundError:
+        raise TrialError(where, "file not found") from None
+    except IsADirectoryError:
+        raise TrialError(where, "is a directory, not a trial file") from None
+    except OSError as exc:
+        raise TrialError(where, f"cannot read file ({exc.strerror or exc})") from None
+
+
+def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None], *, kind: str,
+                  protocol=None, name: str | None = None, metadata: Mapping[str, str] | None = None,
+                  warnings: list[str] | None = None, locate: Callable[[int], str]) -> Trial:
+    """Check and regularise the arrays read from one file, and build the Trial.
+
+    Parameters
+    ----------
+    path : Path
+        The file (named in errors; its stem is the default trial name).
+    raw : bytes
+        The file's content, hashed into ``source_sha256``.
+    values : mapping of str to ndarray or None
+        By Trial field (``time`` in s, ``angle`` in rad or m, ``torque`` and
+        ``elastic_torque`` in N·m or N, ``stiffness_true`` in N·m/rad or N/m), finite, all of
+        the same length; None for fields the file does not have.
+    kind : {"rotational", "translational"}
+    protocol : Protocol or None
+        Its ``sample_period`` (s), if set, is the period every trial is resampled to.
+    name : str or None
+        Trial name; the file stem if None.
+    metadata : mapping of str to str, optional
+    warnings : list of str, optional
+        What the reader noticed (ignored columns…); they follow the resampling notes.
+    locate : callable
+        ``locate(k)`` says where sample ``k`` (0-based) is in the file, e.g. ``"line 7"``.
+
+    Returns
+    -------
+    Trial
+
+    Raises
+    ------
+    TrialError
+        Non-increasing time, a gap, too few samples or too short, no motion.
+    """
+    where = str(path)
+    time, angle = values["time"], values["angle"]
+    _check_time(where, time, locate)
+    label = "angle" if kind == "rotational" else "position"
+    distinct = np.unique(angle).size
+    if distinct == 1:
+        raise TrialError(where, f"no motion: {label} is constant ({angle[0]:g})")
+    if distinct < 3:
+        raise TrialError(where, f"no motion: {label} takes only {distinct} distinct values")
+    notes: list[str] = []
+    values = _uniform(dict(values), notes)
+    if protocol is not None and protocol.sample_period:
+        values = _to_period(where, values, float(protocol.sample_period), notes)
+    return Trial(name=name if name is not None else path.stem, kind=kind, metadata=dict(metadata or {}),
+                 source=where, source_sha256=hashlib.sha256(raw).hexdigest(),
+                 warnings=(*notes, *(warnings or ())), **values)
+
+
+def _check_time(where: str, time: np.ndarray, locate: Callable[[int], str]) -> None:
+    step = np.diff(time)
+    if np.any(step <= 0):
+        k = int(np.flatnonzero(step <= 0)[0]) + 1
+        raise TrialError(where, f"time does not increase at {locate(k)} "
+                                f"(t = {time[k]:.9g} s after {time[k - 1]:.9g} s)")
+    if time.size < MIN_SAMPLES:
+        raise TrialError(where, f"trial too short: {time.size} samples (at least {MIN_SAMPLES} needed)")
+    if time[-1] - time[0] < MIN_DURATION:
+        raise TrialError(where, f"trial too short: {time[-1] - time[0]:.3g} s (at least {MIN_DURATION:g} s needed)")
+    median = float(np.median(step))
+    if np.any(step > GAP_FACTOR * median):
+        k = int(np.flatnonzero(step > GAP_FACTOR * median)[0])
+        raise TrialError(where, f"gap in time at {locate(k + 1)}: {step[k]:.6g} s without samples "
+                                f"after t = {time[k]:.9g} s (median step {median:.6g} s)")
+
+
+def _uniform(values: dict, warnings: list[str]) -> dict:
+    """Put the samples on a uniform grid: snap tiny jitter, interpolate irregular sampling."""
+    time = values["time"]
+    n = time.size
+    step = np.diff(time)
+    median = float(np.median(step))
+    mean = float((time[-1] - time[0]) / (n - 1))
+    grid = time[0] + np.arange(n) * mean
+    jitter = np.max(np.abs(step - median)) / median
+    drift = np.max(np.abs(time - grid)) / mean
+    if jitter <= JITTER_TOLERANCE and drift <= JITTER_TOLERANCE:
+        return {**values, "time": grid}
+    grid = time[0] + np.arange(int(np.floor((time[-1] - time[0]) / median * (1 + 1e-12))) + 1) * median
+    warnings.append(f"irregular sampling (steps {step.min() * 1e3:.4g} to {step.max() * 1e3:.4g} ms) "
+                    f"resampled by linear interpolation to a uniform {1 / median:.6g} Hz")
+    return _interpolate(values, grid)
+
+
+def _to_period(where: str, values: dict, period: float, warnings: list[str]) -> dict:
+    """Resample to the protocol's sample period (zero-phase anti-alias filter if needed)."""
+    time = values["time"]
+    step = float((time[-1] - time[0]) / (time.size - 1))
+    if abs(period - step) <= 1e-6 * period:
+        return values
+    ratio = period / step
+    note = ""
+    if ratio > 2:
+        from scipy.signal import butter, sosfiltfilt
+        cutoff = 0.8 * 0.5 / period
+        sos = butter(8, cutoff, fs=1 / step, output="sos")
+        values = {f: (v if v is None or f == "time" else sosfiltfilt(sos, v)) for f, v in values.items()}
+        note = f", low-pass filtered at {cutoff:.4g} Hz first (zero-phase Butterworth)"
+    count = int(np.floor((time[-1] - time[0]) / period * (1 + 1e-12))) + 1
+    if count < MIN_SAMPLES:
+        raise TrialError(where, f"trial too short: {count} samples after resampling to the protocol's "
+                                f"sample period {period:g} s (at least {MIN_SAMPLES} needed)")
+    warnings.append(f"resampled from {1 / step:.6g} Hz to {1 / period:.6g} Hz "
+                    f"(protocol sample_period {period:g} s){note}")
+    return _interpolate(values, time[0] + np.arange(count) * period)
+
+
+def _interpolate(values: dict, grid: np.ndarray) -> dict:
+    time = values["time"]
+    out = {f: (None if v is None else np.interp(grid, time, v)) for f, v in values.items()}
+    out["time"] = grid
+    return out
