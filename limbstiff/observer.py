@@ -15,14 +15,15 @@ and r = ḟ). The law is linear in σ̂, so over each sample it is a first-order
   α·|ẏ|·Ts > 2; kept to compare with.
 
 Where ẏ = 0 (or below the velocity noise level) a = 1 and c = 0: the estimate is held.
-Pure numpy (the recursion is in :mod:`limbstiff.kernels`): no I/O.
+Pure numpy (the recursion is compiled in :mod:`limbstiff.kernels`, or a blocked NumPy scan
+in :mod:`limbstiff.scan` without numba): no I/O.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import kernels
+from . import kernels, scan
 
 DISCRETISATIONS = ("exact", "euler")
 
@@ -76,8 +77,11 @@ def linear_recursion(a: np.ndarray, c: np.ndarray, initial: float = 0.0) -> np.n
     -------
     ndarray, shape (n,)
     """
-    return kernels.linear_recursion(np.ascontiguousarray(a, dtype=float),
-                                    np.ascontiguousarray(c, dtype=float), float(initial))
+    a = np.ascontiguousarray(a, dtype=float)
+    c = np.ascontiguousarray(c, dtype=float)
+    if not kernels.COMPILED and a.size and np.min(a) >= 0.0 and np.max(a) <= 1.0:
+        return scan.linear_recursion(a, c, initial)      # vectorised NumPy, no loop over samples
+    return kernels.linear_recursion(a, c, float(initial))
 
 
 def observe(velocity: np.ndarray, drive: np.ndarray, *, observer_gain: float, sample_period: float,

@@ -1,0 +1,21 @@
+"""The README's Python example runs as written (in a scratch folder, on the bundled files)."""
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_readme_python_example_runs(tmp_path, monkeypatch):
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    for name in ("examples", "protocols"):
+        (tmp_path / name).symlink_to(ROOT / name)
+    monkeypatch.chdir(tmp_path)
+    scope: dict = {}
+    exec(compile(block, "README.md", "exec"), scope)
+    result, batch = scope["result"], scope["batch"]
+    assert (tmp_path / "elbow-report.pdf").read_bytes().startswith(b"%PDF")
+    assert len(result.to_frame()) == result.trial.n_samples
+    assert batch.exit_status == 0 and {o.trial for o in batch.outcomes} >= {"elbow"}
+    assert (tmp_path / "limbstiff-out" / "elbow" / "summary.json").exists()
