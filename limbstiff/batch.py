@@ -23,6 +23,9 @@ from .io.outputs import SUMMARY_JSON
 SUMMARY_COLUMNS = ("trial", "status", "error", "source", "variant", "stiffness_median", "stiffness_lo",
                    "stiffness_hi", "inertia_median", "damping_median", "observable_fraction", "resumed",
                    "output")
+#: What folders are searched for. ``.txt`` is read when named, but not searched for: a data
+#: folder's README.txt or notes would otherwise become failed trials.
+FOLDER_EXTENSIONS = (".csv", ".tsv", ".mat")
 #: Prefix of the ``summary.csv`` columns that carry each trial's metadata (``# key: value`` lines).
 METADATA_PREFIX = "meta."
 
@@ -31,8 +34,12 @@ class NothingToDo(LimbstiffError):
     """No trial file was found in the paths given."""
 
 
-def discover(paths: Iterable[str | os.PathLike], *, pattern: str = "*.csv") -> list[Path]:
+def discover(paths: Iterable[str | os.PathLike], *, extensions: tuple[str, ...] = FOLDER_EXTENSIONS) -> list[Path]:
     """Trial files named by ``paths``: files, folders (searched recursively) or globs.
+
+    Folders are searched for files whose extension is in ``extensions`` (case-insensitive);
+    files named explicitly or matched by a glob are taken whatever their extension (the reader
+    says if it cannot read one).
 
     Raises
     ------
@@ -44,7 +51,8 @@ def discover(paths: Iterable[str | os.PathLike], *, pattern: str = "*.csv") -> l
         text = str(raw)
         p = Path(text)
         if p.is_dir():
-            found += sorted(q for q in p.rglob(pattern) if q.is_file())
+            found += sorted(q for q in p.rglob("*") if q.is_file() and q.suffix.lower() in extensions
+                            and not q.name.startswith("."))
         elif p.is_file():
             found.append(p)
         elif glob.has_magic(text):
@@ -56,7 +64,8 @@ def discover(paths: Iterable[str | os.PathLike], *, pattern: str = "*.csv") -> l
             raise NothingToDo(f"{text}: no such file or folder")
     unique = list(dict.fromkeys(q.resolve() for q in found))
     if not unique:
-        raise NothingToDo("no trial files found (folders are searched for *.csv)")
+        raise NothingToDo("no trial files found (folders are searched for "
+                          + ", ".join(f"*{e}" for e in extensions) + ")")
     return unique
 
 

@@ -169,7 +169,7 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     Parameters
     ----------
     paths : sequence of str
-        Files, folders (searched for trial files) or globs.
+        Files, folders (searched for ``*.csv``, ``*.tsv``, ``*.mat``) or globs.
     protocol : Protocol, optional
         Resolved settings (file plus overrides).
     out : str or Path

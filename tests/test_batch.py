@@ -123,3 +123,12 @@ def test_progress_bar_on_a_terminal():
     assert "\r[" in text and "1/4 trials" in text and "2/4 trials, 1 failed" in text
     assert "b: FAILED: b.csv: no motion\n" in text               # failures stay readable above the bar
     assert "\n" not in text.split("b.csv: no motion\n")[1]      # the bar redraws in place
+
+
+def test_folders_are_searched_for_every_trial_format(tmp_path):
+    from limbstiff.batch import discover
+    for name in ("a.csv", "b.TSV", "sub/c.mat", "README.txt", ".hidden.csv", "notes.md"):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text("x")
+    assert [p.name for p in discover([tmp_path])] == ["a.csv", "b.TSV", "c.mat"]
+    assert [p.name for p in discover([tmp_path / "README.txt"])] == ["README.txt"]     # named: taken
