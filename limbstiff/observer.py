@@ -105,6 +105,13 @@ def observe(velocity: np.ndarray, drive: np.ndarray, *, observer_gain: float, sa
     -------
     ndarray, shape (n,), N·m/rad (N/m)
     """
+    if kernels.COMPILED:
+        if discretisation not in DISCRETISATIONS:
+            raise ValueError(f"discretisation must be one of {DISCRETISATIONS}, not {discretisation!r}")
+        # one compiled loop, coefficients on the fly: no temporary arrays
+        return kernels.observer_pass(np.ascontiguousarray(velocity, dtype=float),
+                                     np.ascontiguousarray(drive, dtype=float), float(observer_gain * sample_period),
+                                     float(velocity_threshold), discretisation == "exact", float(initial))
     a, c = recursion_coefficients(velocity, drive, observer_gain=observer_gain,
                                   sample_period=sample_period, discretisation=discretisation,
                                   velocity_threshold=velocity_threshold)

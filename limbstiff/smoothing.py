@@ -286,12 +286,28 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
                                     guess=guess, motion_frequency=motion_frequency)
     out = kalman_filter(increments, z, noise, step=step, initial_mean=mean0, initial_cov=cov0)
     sm, sc = rts_smoother(increments, out)
-    t_all = np.arange(len(angle))
+    back = _regular_grid(len(angle), edge, decimation, len(idx))
     responses = np.empty((len(regressors), len(angle)))
     for j, reg in enumerate(regressors):
         r = np.asarray(reg)[idx]
         resp = kalman_filter(increments, r, noise, step=step, initial_mean=_initial_mean(y, r), initial_cov=cov0)
-        responses[j] = np.interp(t_all, idx, rts_smoother(increments, resp)[0][:, 1])
-    return KalmanStiffness(stiffness=np.interp(t_all, idx, sm[:, 1]),
-                           variance=np.interp(t_all, idx, np.maximum(sc[:, 2], 0.0)),
+        responses[j] = back(rts_smoother(increments, resp)[0][:, 1])
+    return KalmanStiffness(stiffness=back(sm[:, 1]), variance=back(np.maximum(sc[:, 2], 0.0)),
                            noise=noise, loglik=out.loglik, decimation=decimation, responses=responses)
+
+
+def _regular_grid(n: int, start: int, step: int, m: int):
+    """Linear interpolation from the samples start, start + step, … (m of them) back to 0…n−1,
+    held constant beyond the ends. The grid is regular, so each interval is filled by one
+    broadcast (v[j] + (v[j+1] − v[j])·i/step): O(n), no search and no gather."""
+    frac = np.arange(step) / step
+    last = start + (m - 1) * step
+
+    def back(v):
+        out = np.empty(n)
+        out[:start] = v[0]
+        if m > 1:
+            out[start:last] = (v[:-1, None] + np.diff(v)[:, None] * frac).ravel()
+        out[last:] = v[-1]
+        return out
+    return back

@@ -41,3 +41,17 @@ def test_scan_on_an_observer_pass_and_a_forgotten_state():
 def test_scan_refuses_an_unstable_recursion():
     with pytest.raises(ValueError, match="0 <= a <= 1"):
         scan.linear_recursion(np.array([1.5, 0.5]), np.zeros(2))
+
+
+@pytest.mark.parametrize("discretisation", ["exact", "euler"])
+def test_fused_observer_pass_equals_coefficients_and_scan(discretisation):
+    # the compiled pass (coefficients on the fly) against the NumPy path: coefficients, then the
+    # blocked scan (exact) or the loop (Euler's a may leave [0, 1])
+    rng = np.random.default_rng(2)
+    velocity = 0.2 * np.sin(np.arange(50_000) * 2e-3) + 0.02 * rng.standard_normal(50_000)
+    drive = 20.0 * velocity + rng.standard_normal(50_000)
+    kw = dict(observer_gain=30.0, sample_period=1e-3, discretisation=discretisation, velocity_threshold=0.01)
+    a, c = observer.recursion_coefficients(velocity, drive, **kw)
+    ref = scan.linear_recursion(a, c, 3.0) if discretisation == "exact" else LOOP(a, c, 3.0)
+    got = observer.observe(velocity, drive, initial=3.0, **kw)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * np.max(np.abs(ref)))

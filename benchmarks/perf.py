@@ -1,0 +1,192 @@
+"""Speed and memory of the estimator passes and of ``analyze``, as ratios measured in one run.
+
+    python benchmarks/perf.py [--quick]
+
+1. One estimator pass on 10⁶ samples ÷ one ``numpy.cumsum`` over 10⁶ float64 (target ≤ 10):
+   the observer (exact and Euler discretisations, forwards and backwards; compiled and the
+   pure-NumPy blocked scan) and the Kalman filter + RTS smoother.
+2. Bands from 2000 posterior draws ÷ one estimator pass (target ≤ 3).
+3. Full ``analyze`` of a 60 s, 1 kHz trial with identification, bands and the PDF report (target
+   ≤ 5 s on 2 cores).
+4. ``analyze`` time against trial length, 10 s to 1 hour, and the fitted exponent (linear: 1).
+5. Peak memory of reading and analysing a one-hour 1 kHz trial (3.6 million samples) with
+   identification and bands, in a fresh process (target < 1 GB).
+Times are the best of several repetitions (the least disturbed by other processes). Writes
+section ``perf`` of ``benchmarks/RESULTS.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _results import machine, update_section  # noqa: E402
+
+from limbstiff import estimators, kernels, observer, scan, smoothing  # noqa: E402
+from limbstiff.analysis import analyze, derivatives  # noqa: E402
+from limbstiff.protocol import Protocol  # noqa: E402
+from limbstiff.simulate import simulate  # noqa: E402
+
+N = 1_000_000
+
+
+def best(func, repeats: int = 7) -> float:
+    """Shortest wall time of ``repeats`` calls, s."""
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        func()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def signals_of(trial):
+    angle, torques, bw = derivatives(trial, Protocol())
+    return estimators.Signals(angle, torques["torque"], trial.sample_period, bw.cutoff_hz)
+
+
+def passes() -> tuple[list[tuple[str, float]], float, dict]:
+    """Seconds of one pass of each estimator over 10⁶ samples, and of one cumsum."""
+    trial = simulate("ankle", seed=0, params={"duration": N / 1000.0 - 0.001})
+    sig = signals_of(trial)
+    y, f = sig.angle, sig.torque
+    m, b, ts = 0.015, 1.0, sig.sample_period
+    drive = f[1] - m * y[3] - b * y[2]
+    x = np.random.default_rng(0).standard_normal(N)
+    t_cumsum = best(lambda: np.cumsum(x), 21)
+    out = []
+    for disc in ("exact", "euler"):
+        gain = 0.5 if disc == "euler" else 300.0       # Euler needs α·|ẏ|·Ts < 2 to stay stable
+        for direction, sl in (("forwards", slice(None)), ("backwards", slice(None, None, -1))):
+            vel, drv = np.ascontiguousarray(y[1][sl]), np.ascontiguousarray(drive[sl])
+            out.append((f"observer, {disc}, {direction} (compiled, coefficients on the fly)",
+                        best(lambda disc=disc, gain=gain, vel=vel, drv=drv: observer.observe(
+                            vel, drv, observer_gain=gain, sample_period=ts, discretisation=disc))))
+
+    def numpy_pass():
+        a, c = observer.recursion_coefficients(y[1], drive, observer_gain=300.0, sample_period=ts)
+        return scan.linear_recursion(a, c)
+    out.append(("observer, exact, pure NumPy (coefficients + blocked scan; the reference path)", best(numpy_pass)))
+    a, c = observer.recursion_coefficients(y[1], drive, observer_gain=300.0, sample_period=ts)
+    out.append(("  the recursion alone, compiled", best(lambda: kernels.linear_recursion(a, c, 0.0))))
+    out.append(("  the recursion alone, NumPy blocked scan", best(lambda: scan.linear_recursion(a, c))))
+    z = f[0] - m * y[2] - b * y[1]
+    d = np.diff(y[0], prepend=y[0][0])
+    noise = smoothing.NoiseLevels(1e-2, 1e-1, 1.0)
+    kw = dict(step=ts, initial_mean=np.array([z[0], 60.0]), initial_cov=np.array([1.0, 0.0, 1e4]))
+
+    def kalman():
+        return smoothing.rts_smoother(d, smoothing.kalman_filter(d, z, noise, **kw))
+    out.append(("Kalman filter + RTS smoother, every sample", best(kalman, 3)))
+    out.append(("Kalman estimator as analyze runs it: steps at 2.5× the corner, σ̂ and its two "
+                "sensitivities, back to every sample",
+                best(lambda: estimators.kalman(sig, motion_frequency=1.0, inertia=m, damping=b,
+                                               noise=noise), 3)))
+    return out, t_cumsum, {"sig": sig}
+
+
+def bands(sig) -> dict:
+    """Bands from 2000 draws of (m, b) against one observer pass."""
+    kw = dict(smoothed=False, gain=300.0, velocity_threshold=0.0)
+    est = estimators.observers(sig, inertia=0.015, damping=1.0, **kw)
+    t_three = best(lambda: estimators.observers(sig, inertia=0.015, damping=1.0, **kw), 5)
+    draws = np.random.default_rng(0).multivariate_normal([0.015, 1.0], [[1e-8, 0], [0, 1e-4]], 2000)
+    t_cov = best(lambda: est.variance_with(np.cov(draws.T)), 7)
+    t_pass = t_three / 3                          # σ̂, ∂σ̂/∂m, ∂σ̂/∂b: three passes
+    return {"pass": t_pass, "given_sensitivities": t_cov, "with_sensitivities": t_cov + 2 * t_pass,
+            "naive": 2000 * t_pass}
+
+
+def full_analyze(trial, pdf: bool, folder: Path) -> float:
+    from limbstiff.report import write_report
+    t0 = time.perf_counter()
+    result = analyze(trial, seed=0)
+    if pdf:
+        write_report(result, folder / f"{trial.name}.pdf")
+    return time.perf_counter() - t0
+
+
+MEMORY_SCRIPT = """
+import resource, sys, time
+from limbstiff.io import read_trial
+from limbstiff.analysis import analyze
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+t0 = time.perf_counter()
+trial = read_trial(sys.argv[1])
+result = analyze(trial, seed=0)
+print(time.perf_counter() - t0, base / 1024, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+      trial.n_samples)
+"""
+
+
+def memory(duration: float, folder: Path) -> dict:
+    """Peak resident memory of a fresh process reading and analysing one long trial, MB."""
+    from limbstiff.io import write_trial
+    path = folder / "long.csv"
+    write_trial(simulate("ankle", seed=5, params={"duration": duration}), path)
+    warm = "import limbstiff.analysis, limbstiff.io, numpy; import limbstiff.kernels"
+    subprocess.run([sys.executable, "-c", warm], check=True)
+    out = subprocess.run([sys.executable, "-c", MEMORY_SCRIPT, str(path)], check=True, capture_output=True,
+                         text=True).stdout.split()
+    return {"seconds": float(out[0]), "imports_mb": float(out[1]), "peak_mb": float(out[2]),
+            "samples": int(out[3]), "file_mb": path.stat().st_size / 2 ** 20}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="stop the length study at 10 minutes")
+    args = parser.parse_args()
+    analyze(simulate("ankle", seed=1, params={"duration": 5.0}))          # compile the kernels first
+    rows, t_cumsum, ctx = passes()
+    bnd = bands(ctx["sig"])
+    lengths = [10.0, 30.0, 100.0, 300.0, 600.0] + ([] if args.quick else [1800.0, 3600.0])
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        t60_all = {s: full_analyze(simulate(s, seed=3, params={"duration": 60.0}), True, folder)
+                   for s in ("elbow", "wrist", "ankle")}
+        scaling = [(d, full_analyze(simulate("ankle", seed=4, params={"duration": d}), False, folder))
+                   for d in lengths]
+        mem = memory(3600.0 if not args.quick else 600.0, folder)
+    slope = float(np.polyfit(np.log([d for d, _ in scaling]), np.log([t for _, t in scaling]), 1)[0])
+    upper = float(np.polyfit(np.log([d for d, _ in scaling[2:]]), np.log([t for _, t in scaling[2:]]), 1)[0])
+
+    lines = ["## Performance (`benchmarks/perf.py`)", "", f"Machine: {machine()}.", "",
+             f"One `numpy.cumsum` over 10⁶ float64: {1e3 * t_cumsum:.2f} ms "
+             f"({1e9 * t_cumsum / N:.2f} ns per sample). Best of several runs.", "",
+             "| estimator pass over 10⁶ samples | time | ÷ cumsum |", "|---|---|---|"]
+    for name, t in rows:
+        lines.append(f"| {name} | {1e3 * t:.1f} ms | {t / t_cumsum:.1f} |")
+    lines += ["", "Target ≤ 10 × cumsum per pass.", "",
+              "| bands from 2000 posterior draws of (m, b) | time | ÷ one observer pass |", "|---|---|---|",
+              f"| covariance of the draws through the sensitivities ∂σ̂/∂(m, b) | "
+              f"{1e3 * bnd['given_sensitivities']:.1f} ms | {bnd['given_sensitivities'] / bnd['pass']:.2f} |",
+              f"| the same, counting the two sensitivity passes | {1e3 * bnd['with_sensitivities']:.1f} ms | "
+              f"{bnd['with_sensitivities'] / bnd['pass']:.2f} |",
+              f"| (re-running the estimator per draw, for comparison) | {bnd['naive']:.1f} s | 2000 |",
+              "", "Target ≤ 3.", "",
+              "Full `analyze` of a 60 s, 1 kHz trial (identification with emcee, bands, PDF report): " +
+              ", ".join(f"{s} {t:.2f} s" for s, t in t60_all.items()) + " (target ≤ 5 s).", "",
+              "| trial length (ankle, 1 kHz) | `analyze` (identification + bands, no PDF) | per minute of data |",
+              "|---|---|---|"]
+    for d, t in scaling:
+        lines.append(f"| {d:g} s | {t:.2f} s | {60 * t / d:.2f} s |")
+    lines += ["", f"Fitted exponent of time against length: **{slope:.2f}** over 10 s–{lengths[-1]:g} s "
+                  f"({upper:.2f} from 100 s up; 1 = linear).", "",
+              f"Peak memory, fresh process reading ({mem['file_mb']:.0f} MB CSV) and analysing a "
+              f"{mem['samples'] / 1000 / 60:.0f}-minute 1 kHz trial ({mem['samples']} samples) with "
+              f"identification and bands: **{mem['peak_mb']:.0f} MB** (after imports {mem['imports_mb']:.0f} MB; "
+              f"{mem['seconds']:.1f} s). Target < 1 GB."]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    update_section("perf", text)
+
+
+if __name__ == "__main__":
+    main()
