@@ -1,0 +1,257 @@
+"""What every report page shares: page size, fonts, footer, text panels, PDF output.
+
+Pages are :class:`matplotlib.figure.Figure` objects built without pyplot; :func:`write_pdf`
+writes a list of them atomically with the document's metadata. matplotlib is imported
+inside the functions only.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import textwrap
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from .. import __version__
+from ..io.atomic import atomic_output
+
+#: A4 portrait, inches.
+A4 = (8.27, 11.69)
+#: Smallest font on a page, pt (legible when printed).
+MIN_FONT = 8
+#: Font sizes, pt.
+FONT = {"body": 9, "small": 8, "heading": 11, "title": 15}
+#: gid of an axes that holds text only (no data expected on it).
+TEXT_PANEL = "text-panel"
+#: Part of the page left to the footer (bottom) and the title (top), in figure fractions.
+FOOTER_HEIGHT, TITLE_HEIGHT = 0.055, 0.05
+
+_RC = {
+    "font.size": FONT["body"], "axes.titlesize": FONT["body"], "axes.labelsize": FONT["body"],
+    "xtick.labelsize": FONT["small"], "ytick.labelsize": FONT["small"],
+    "legend.fontsize": FONT["small"], "figure.titlesize": FONT["heading"],
+    "axes.grid": True, "grid.color": "0.9", "grid.linewidth": 0.5, "pdf.fonttype": 42,
+}
+
+
+@contextlib.contextmanager
+def style():
+    """Font sizes and grid of the reports, for the figures built inside the block."""
+    import matplotlib
+    with matplotlib.rc_context(_RC):
+        yield
+
+
+def new_page(title: str | None = None, *, constrained: bool = True):
+    """An A4 portrait figure with room for a title and the footer.
+
+    Parameters
+    ----------
+    title : str, optional
+        Page heading (bold, top left).
+    constrained : bool
+        Use matplotlib's constrained layout within the page's free area.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=A4, layout="constrained" if constrained else None)
+    top = 1.0
+    if title:
+        fig.text(0.06, 1 - 0.6 * TITLE_HEIGHT, title, fontsize=FONT["title"] - 2, weight="bold", va="center")
+        top = 1 - TITLE_HEIGHT
+    if constrained:
+        fig.get_layout_engine().set(rect=(0.0, FOOTER_HEIGHT, 1.0, top - FOOTER_HEIGHT), h_pad=0.06, w_pad=0.06)
+    return fig
+
+
+def text_panel(ax, lines: Sequence[tuple[str, str]] | str, *, title: str | None = None,
+               fontsize: float = FONT["body"], key_width: float = 0.42, wrap: int = 60):
+    """Turn an axes into a panel of text, from its top: a message, or ``key  value`` rows.
+
+    Lines are spaced in points (1.4 × the font size), so the text keeps its spacing whatever
+    the panel's height; a panel too short for its text lets it run below its bottom edge.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    lines : str or sequence of (str, str)
+        A message (wrapped) or rows of a two-column table (values wrapped at ``wrap`` characters).
+    title : str, optional
+    fontsize : float, pt
+    key_width : float
+        Fraction of the panel's width given to the keys.
+    wrap : int
+        Characters per line of a value (or the message).
+    """
+    from matplotlib.transforms import ScaledTranslation
+
+    ax.set_axis_off()
+    ax.set_gid(TEXT_PANEL)
+    fig = ax.get_figure()
+
+    def at(x, down_pt):
+        return ax.transAxes + ScaledTranslation(0, -down_pt / 72, fig.dpi_scale_trans), (x, 1.0)
+
+    line = 1.4 * fontsize
+    down = 0.0
+    first = len(ax.texts)
+    if title:
+        tr, xy = at(0, down)
+        ax.text(*xy, title, transform=tr, fontsize=FONT["heading"], weight="bold", va="top")
+        down += 2.0 * FONT["heading"]
+    if isinstance(lines, str):
+        tr, xy = at(0, down)
+        ax.text(*xy, "\n".join(textwrap.wrap(lines, wrap)), transform=tr, fontsize=fontsize, va="top",
+                linespacing=1.4)
+    else:
+        for key, value in lines:
+            wrapped = textwrap.wrap(str(value), wrap) or [""]
+            tr, xy = at(0, down)
+            ax.text(*xy, key, transform=tr, fontsize=fontsize, weight="bold", va="top")
+            tr, xy = at(key_width, down)
+            ax.text(*xy, "\n".join(wrapped), transform=tr, fontsize=fontsize, va="top", linespacing=1.2)
+            down += line * len(wrapped) + 0.25 * fontsize
+    for text in ax.texts[first:]:
+        text.set_in_layout(False)       # the panel's size is the layout's; text may not push plots aside
+
+
+def fmt(x, unit: str = "", digits: int = 4) -> str:
+    """A number with its unit, ``—`` when missing or not finite."""
+    if x is None or (isinstance(x, float) and not np.isfinite(x)):
+        return "—"
+    return f"{x:.{digits}g} {unit}".strip()
+
+
+def fmt_interval(v: dict | None, unit: str, ci_level: float) -> str:
+    """``median unit [lo, hi] (90 % interval)`` of an interval dict; ``—`` when missing."""
+    if not v or v.get("median") is None:
+        return "—"
+    return f"{fmt(v['median'], unit)}  [{fmt(v['lo'])}, {fmt(v['hi'])}]  ({100 * ci_level:.0f} % interval)"
+
+
+def footer(fig, lines: Iterable[str], page: int | None = None, pages: int | None = None) -> None:
+    """Provenance lines at the foot of a page, page number at the right.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    lines : iterable of str
+        Each is wrapped to the page's width.
+    page, pages : int, optional
+        This page's number and the page count.
+    """
+    text = "\n".join(w for line in lines for w in textwrap.wrap(line, 125))
+    fig.text(0.06, 0.012, text, fontsize=MIN_FONT, color="0.35", va="bottom", linespacing=1.3)
+    if page is not None:
+        fig.text(0.94, 0.012, f"{page} / {pages}" if pages else str(page), fontsize=MIN_FONT, color="0.35",
+                 ha="right", va="bottom")
+
+
+def shade_false(ax, time: np.ndarray, mask: np.ndarray, **kw) -> None:
+    """Shade the stretches of ``time`` where ``mask`` is False (grey by default)."""
+    edges = np.diff(np.concatenate([[0], (~np.asarray(mask, bool)).astype(int), [0]]))
+    style_ = {"color": "0.88", "lw": 0, "zorder": 0, **kw}
+    for lo, hi in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        ax.axvspan(time[lo], time[min(hi, len(time) - 1)], **style_)
+
+
+#: Most points of a time-series line on a page: far beyond what print resolves, far below a long trial.
+LINE_POINTS = 4000
+
+
+def envelope(t: np.ndarray, *ys: np.ndarray, points: int = LINE_POINTS):
+    """Thin time series for drawing while keeping every peak: the min and max of each bin.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), s
+    *ys : ndarray, shape (n,)
+    points : int
+        Points per series at most (``points // 2`` bins, each giving its minimum and maximum).
+
+    Returns
+    -------
+    t, *ys : ndarray
+        Unchanged when ``n <= points``; else each bin contributes (start, min) and
+        (middle, max), which draws the same band of ink as the full series at print size.
+        NaNs are ignored within a bin.
+    """
+    t = np.asarray(t, float)
+    n = t.size
+    if n <= points:
+        return (t, *(np.asarray(y, float) for y in ys))
+    starts = np.linspace(0, n, points // 2 + 1).astype(int)[:-1]
+    mids = np.minimum((starts + np.append(starts[1:], n)) // 2, n - 1)
+    t_out = np.column_stack([t[starts], t[mids]]).ravel()
+    out = []
+    for y in ys:
+        y = np.asarray(y, float)
+        filled = np.where(np.isfinite(y), y, np.nan)
+        with np.errstate(invalid="ignore"):
+            lo = np.fmin.reduceat(filled, starts)
+            hi = np.fmax.reduceat(filled, starts)
+        out.append(np.column_stack([lo, hi]).ravel())
+    return (t_out, *out)
+
+
+def envelope_band(t: np.ndarray, lo: np.ndarray, hi: np.ndarray, points: int = LINE_POINTS):
+    """Thin a band (``fill_between``) for drawing: the lowest ``lo`` and highest ``hi`` per bin.
+
+    Returns
+    -------
+    t, lo, hi : ndarray
+    """
+    t = np.asarray(t, float)
+    if t.size <= points:
+        return t, np.asarray(lo, float), np.asarray(hi, float)
+    starts = np.linspace(0, t.size, points + 1).astype(int)[:-1]
+    return t[starts], np.fmin.reduceat(np.asarray(lo, float), starts), np.fmax.reduceat(np.asarray(hi, float), starts)
+
+
+def is_constant(x: np.ndarray) -> bool:
+    """True when a signal does not change beyond floating-point round-off."""
+    x = np.asarray(x, float)
+    return bool(np.ptp(x) <= 1e-12 * max(float(np.max(np.abs(x))), 1e-300))
+
+
+def robust_limits(values: np.ndarray, pad: float = 0.15, pct: tuple[float, float] = (1, 99)):
+    """Axis limits from percentiles of the finite values, padded; None when there are none."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return None
+    lo, hi = np.percentile(v, pct)
+    span = hi - lo if hi > lo else max(abs(hi), 1.0) * 0.1
+    return lo - pad * span, hi + pad * span
+
+
+def write_pdf(figures: Sequence, path: str | Path, metadata: dict) -> Path:
+    """Write figures as the pages of one PDF, atomically.
+
+    Parameters
+    ----------
+    figures : sequence of matplotlib.figure.Figure
+    path : str or Path
+    metadata : dict
+        PDF document information (Title, Subject, Keywords…); Creator is set to
+        ``limbstiff <version>``.
+
+    Returns
+    -------
+    Path
+    """
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    info = {**metadata, "Creator": f"limbstiff {__version__}"}
+    with atomic_output(path) as tmp:
+        with PdfPages(tmp, metadata=info) as pdf:
+            for fig in figures:
+                pdf.savefig(fig)
+    return path

@@ -1,0 +1,168 @@
+"""The inertia–damping page of the per-trial report: the posterior of (m, b) as a pairwise
+(corner) plot, with the least-squares and maximum-likelihood values, and the posterior of the
+Kalman model's noise levels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .common import FONT, fmt, new_page, text_panel
+
+#: Credible masses drawn as contours on the (m, b) scatter.
+CONTOUR_MASSES = (0.5, 0.9)
+
+
+def _prior_text(prior) -> str:
+    if not prior:
+        return "flat on > 0"
+    d = prior.get("distribution")
+    if d == "lognormal":
+        return f"lognormal, median {prior.get('median'):.4g}, σ(log) {prior.get('sigma'):.3g}"
+    if d == "uniform":
+        return f"uniform on [{prior.get('low'):.4g}, {prior.get('high'):.4g}]"
+    return "flat on > 0" if prior.get("scale") is None else f"half-normal, scale {prior.get('scale'):.4g}"
+
+
+def _limits(x: np.ndarray, extra: list[float]) -> tuple[tuple[float, float], list[bool]]:
+    """Axis range of the draws, widened to show the extra points that lie near it.
+
+    Returns the range and, per extra point, whether it is inside it.
+    """
+    lo, hi = np.percentile(x, [0.25, 99.75])
+    span = hi - lo if hi > lo else max(abs(hi), 1e-12) * 0.1
+    lo, hi = lo - 0.1 * span, hi + 0.1 * span
+    inside = []
+    for v in extra:
+        ok = v is not None and np.isfinite(v) and lo - 2 * span <= v <= hi + 2 * span
+        inside.append(bool(ok))
+        if ok:
+            lo, hi = min(lo, v - 0.05 * span), max(hi, v + 0.05 * span)
+    return (lo, hi), inside
+
+
+def _contours(ax, x, y, xlim, ylim) -> None:
+    """Contours enclosing :data:`CONTOUR_MASSES` of the draws (a smoothed 2-D histogram)."""
+    from scipy import ndimage
+    counts, xe, ye = np.histogram2d(x, y, bins=60, range=[xlim, ylim])
+    if counts.sum() < 50:
+        return
+    dens = ndimage.gaussian_filter(counts, 2.0)
+    flat = np.sort(dens.ravel())[::-1]
+    cum = np.cumsum(flat) / flat.sum()
+    levels = sorted({float(flat[min(np.searchsorted(cum, m), flat.size - 1)]) for m in CONTOUR_MASSES})
+    if len(levels) == len(CONTOUR_MASSES) and levels[0] > 0:
+        xc, yc = 0.5 * (xe[1:] + xe[:-1]), 0.5 * (ye[1:] + ye[:-1])
+        ax.contour(xc, yc, dens.T, levels=levels, colors=["C0", "C0"], linewidths=[0.8, 1.4])
+
+
+def _hist(ax, x, interval, marks, label, inside):
+    ax.hist(x, bins=40, color="C0", alpha=0.55, density=True)
+    med, lo, hi = interval
+    ax.axvspan(lo, hi, color="C0", alpha=0.12, lw=0)
+    ax.axvline(med, color="k", lw=1.2)
+    for (name, value, marker, colour), ok in zip(marks, inside):
+        if ok:
+            ax.axvline(value, color=colour, lw=1, ls=":")
+    ax.set_xlabel(label)
+    ax.set_ylabel("density")
+
+
+def mechanics_page(result):
+    """The posterior of inertia and damping as a pairwise plot (or why there is none)."""
+    from matplotlib.ticker import MaxNLocator
+    u = result.trial.units
+    post = result.posterior
+    fig = new_page("Inertia and damping: posterior", constrained=post is not None)
+    if post is None:
+        ax = fig.add_axes((0.06, 0.5, 0.88, 0.38))
+        if result.variant == "direct":
+            why = ("Direct variant: the torque on the elastic element is measured, so the stiffness needs "
+                   "no inertia or damping and none was identified.")
+        else:
+            why = (f"Inertia and damping were given, not identified: m = {fmt(result.inertia.median, u['inertia'])}, "
+                   f"b = {fmt(result.damping.median, u['damping'])}. There is no posterior to show; the band "
+                   "of the stiffness holds the estimator's own uncertainty only.")
+        text_panel(ax, why, title="No posterior of inertia and damping", wrap=80)
+        return fig
+    draws = np.asarray(post.draws, float)
+    ident = result.details.get("identification") or {}
+    ls, ml = ident.get("least_squares") or {}, ident.get("maximum_likelihood") or {}
+    ci = result.ci_level
+    params = [("inertia", "m", u["inertia"], result.inertia), ("damping", "b", u["damping"], result.damping)]
+    free = [j for j in range(2) if np.ptp(draws[:, j]) > 0]
+    outer = fig.add_gridspec(2, 1, height_ratios=[2, 0.75])
+    gs = outer[0].subgridspec(2, 2)
+    marks_of = {j: [("least squares", ls.get(params[j][0]), "s", "C1"),
+                    ("max. likelihood", ml.get(params[j][0]), "D", "C3")] for j in range(2)}
+    lims, inside = {}, {}
+    for j in free:
+        lims[j], inside[j] = _limits(draws[:, j], [v for _, v, _, _ in marks_of[j]])
+    labels = {j: f"{params[j][0]} {params[j][1]} [{params[j][2]}]" for j in range(2)}
+    diag = {}
+    for k, j in enumerate(free):
+        ax = fig.add_subplot(gs[k, k] if len(free) == 2 else gs[0, :])
+        iv = params[j][3]
+        _hist(ax, draws[:, j], (iv.median, iv.lo, iv.hi), marks_of[j], labels[j], inside[j])
+        ax.set_xlim(*lims[j])
+        ax.xaxis.set_major_locator(MaxNLocator(4))
+        diag[j] = ax
+    if len(free) == 2:
+        ax = fig.add_subplot(gs[1, 0], sharex=diag[0])
+        ax.scatter(draws[:, 0], draws[:, 1], s=2, lw=0, color="C0", alpha=0.35, rasterized=True,
+                   label="posterior draws")
+        _contours(ax, draws[:, 0], draws[:, 1], lims[0], lims[1])
+        m, b = result.inertia, result.damping
+        ax.errorbar([m.median], [b.median], xerr=[[m.median - m.lo], [m.hi - m.median]],
+                    yerr=[[b.median - b.lo], [b.hi - b.median]], fmt="o", color="k", ms=5, capsize=3, lw=1,
+                    label=f"median, {100 * ci:.0f} % intervals")
+        for (name, vm, marker, colour), (_, vb, _, _), okm, okb in zip(marks_of[0], marks_of[1], inside[0], inside[1]):
+            if okm and okb:
+                ax.plot([vm], [vb], marker, color=colour, ms=7, mfc="none", mew=1.5, label=name)
+        ax.set_xlim(*lims[0])
+        ax.set_ylim(*lims[1])
+        ax.yaxis.set_major_locator(MaxNLocator(5))
+        ax.set_xlabel(labels[0])
+        ax.set_ylabel(labels[1])
+        ax.legend(loc="upper right", fontsize=FONT["small"], framealpha=0.85)
+        diag[0].set_xlabel("")
+    rows = []
+    for j, (name, sym, unit, iv) in enumerate(params):
+        if j in free:
+            rows.append((f"{name} {sym}", f"{fmt(iv.median, unit)} [{fmt(iv.lo)}, {fmt(iv.hi)}]"))
+        else:
+            rows.append((f"{name} {sym}", f"{fmt(iv.median, unit)} (given)"))
+        for (what, v, _, _), ok in zip(marks_of[j], inside.get(j, [True, True])):
+            if v is not None:
+                rows.append((f"  {what}", fmt(v, unit) + ("" if ok else " (off the plot)")))
+        rows.append(("  prior", _prior_text((result.settings or {}).get(f"{name}_prior"))))
+    if len(free) == 2:
+        rows.append(("correlation", f"{np.corrcoef(draws[:, 0], draws[:, 1])[0, 1]:+.2f}"))
+    rows.append(("draws", f"{draws.shape[0]}; black: median, shaded: {100 * ci:.0f} % interval; "
+                          "contours hold 50 % and 90 % of the draws"))
+    text_ax = fig.add_subplot(gs[0, 1] if len(free) == 2 else gs[1, :])
+    text_panel(text_ax, rows, title="Values", key_width=0.4, wrap=34, fontsize=FONT["small"])
+    _noise_row(fig, outer[1].subgridspec(1, 3), draws, u)
+    return fig
+
+
+def _noise_row(fig, gs, draws, u):
+    """Histograms of the log noise levels (ln R, ln Q_s, ln Q_σ)."""
+    from matplotlib.ticker import MaxNLocator
+    torque, stiff = u["torque"], u["stiffness"]
+    labels = [f"ln R   [R: ({torque})²]", f"ln Q_s   [Q_s: ({torque})²/s]", f"ln Q_σ   [Q_σ: ({stiff})²/s]"]
+    titles = ["measurement noise", "elastic-torque walk", "stiffness walk"]
+    for k in range(3):
+        ax = fig.add_subplot(gs[0, k])
+        x = draws[:, 2 + k]
+        x = x[np.isfinite(x)]
+        if x.size == 0:
+            text_panel(ax, "no draws")
+            continue
+        ax.hist(x, bins=30, color="0.5", alpha=0.8, density=True)
+        ax.axvline(np.median(x), color="k", lw=1)
+        ax.set_xlabel(labels[k])
+        ax.xaxis.set_major_locator(MaxNLocator(4))
+        ax.set_title(titles[k], fontsize=FONT["small"])
+        if k == 0:
+            ax.set_ylabel("density")

@@ -1,0 +1,230 @@
+"""Pages of the per-trial report about the stiffness itself: the summary for a clinician,
+the signals and the stiffness over time, stiffness against angle and torque, and the error
+against a reference stiffness.
+
+Each ``*_page(result)`` returns one :class:`matplotlib.figure.Figure` (A4 portrait, no footer:
+:mod:`limbstiff.report.trial` adds it).
+"""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+
+from .common import (FONT, envelope, envelope_band, fmt, fmt_interval, new_page, robust_limits, shade_false,
+                     text_panel)
+
+#: Most points drawn in a scatter plot (evenly thinned beyond).
+MAX_POINTS = 20_000
+#: Seconds at the start of a trial left out of the reference error (as in reference_error()).
+REFERENCE_SKIP_S = 2.0
+
+
+def names(trial) -> dict[str, str]:
+    """Words for the trial's quantities: angle/torque (rotational) or position/force."""
+    if trial.kind == "translational":
+        return {"angle": "position", "torque": "force", "elastic_torque": "elastic force"}
+    return {"angle": "angle", "torque": "torque", "elastic_torque": "elastic torque"}
+
+
+def recorded_torque(result) -> tuple[str, np.ndarray]:
+    """The torque channel the variant used: (``torque`` or ``elastic_torque``, samples)."""
+    trial = result.trial
+    if result.variant == "direct" or trial.torque is None:
+        return "elastic_torque", trial.elastic_torque
+    return "torque", trial.torque
+
+
+def summary_page(result):
+    """Page 1: the trial at a glance, for a clinician (text only)."""
+    fig = new_page(constrained=False)
+    s = result.summary()
+    u, ci = s["units"], s["ci_level"]
+    ident = s["details"].get("identification") or {}
+    lines = [
+        ("Trial", s["trial"]),
+        ("Source", s["source"] or "(in memory)"),
+        ("Variant / estimator", f"{s['variant']} variant / {s['estimator']} estimator"),
+        ("Sampling", f"{s['fs_hz']:.4g} Hz, {s['n_samples']} samples, {s['duration_s']:.4g} s"),
+        ("Median stiffness", fmt_interval(s["stiffness"], u["stiffness"], ci)),
+        ("Stiffness range", f"{fmt(s['stiffness']['min'])} to {fmt(s['stiffness']['max'], u['stiffness'])} "
+                            + ("(informed samples)" if result.observable.any() else "(all samples: none is informed)")),
+    ]
+    expected = ident.get("inertia_in_expected_range")
+    for name in ("inertia", "damping"):
+        v = s[name]
+        if v is None:
+            text = "not needed (direct variant: the elastic torque is measured)"
+        else:
+            text = fmt_interval(v, u[name], ci)
+            if ident.get("method") == "given" or v["lo"] == v["hi"]:
+                text = f"{fmt(v['median'], u[name])} (given, not identified)"
+        if name == "inertia" and expected:
+            lo, hi = expected["range"]
+            text += f"; {'within' if expected['inside'] else 'OUTSIDE'} the expected {lo:g}–{hi:g}"
+        lines.append((name.capitalize(), text))
+    lines.append(("Informed by motion", f"{100 * s['observable_fraction']:.1f} % of the trial"))
+    err = s.get("reference_error")
+    if err and err.get("median") is not None:
+        lines.append(("Error vs reference", f"median {100 * err['median']:.2f} %, 90th percentile "
+                                            f"{100 * err['p90']:.2f} %, band covers it {100 * err['coverage']:.0f} %"))
+    fig.text(0.06, 0.955, "Stiffness report", fontsize=FONT["title"], weight="bold")
+    fig.text(0.06, 0.93, s["trial"], fontsize=FONT["heading"], color="0.3")
+    y = 0.89
+    for label, value in lines:
+        wrapped = textwrap.wrap(str(value), 62) or [""]
+        fig.text(0.06, y, label, fontsize=10, weight="bold", va="top")
+        fig.text(0.33, y, "\n".join(wrapped), fontsize=10, va="top", linespacing=1.3)
+        y -= 0.0205 * len(wrapped) + 0.008
+    y -= 0.015
+    fig.text(0.06, y, "Warnings", fontsize=FONT["heading"], weight="bold", va="top")
+    y -= 0.03
+    for w in s["warnings"] or ["none"]:
+        wrapped = textwrap.wrap(w, 95)
+        fig.text(0.08, y, "• " + "\n  ".join(wrapped), fontsize=FONT["body"], va="top", linespacing=1.3)
+        y -= 0.0175 * len(wrapped) + 0.006
+    meta = list(s["metadata"].items())
+    if meta:
+        y -= 0.02
+        fig.text(0.06, y, "Metadata (from the file)", fontsize=FONT["heading"], weight="bold", va="top")
+        y -= 0.03
+        room = max(0, int((y - 0.08) / 0.017))
+        shown = meta[:room] if len(meta) <= room else meta[:max(room - 1, 0)]
+        for key, value in shown:
+            fig.text(0.08, y, textwrap.shorten(f"{key}: {value}", 110), fontsize=FONT["small"], va="top")
+            y -= 0.017
+        if len(shown) < len(meta):
+            fig.text(0.08, y, f"… {len(meta) - len(shown)} more in summary.json", fontsize=FONT["small"],
+                     style="italic", va="top")
+    return fig
+
+
+def _stiffness_axes(ax, result, *, reference: bool = True) -> None:
+    t, u = result.trial.time, result.trial.units
+    shade_false(ax, t, result.observable)
+    ax.fill_between(*envelope_band(t, result.stiffness_lo, result.stiffness_hi), color="C0", alpha=0.3, lw=0,
+                    label=f"{100 * result.ci_level:.0f} % band")
+    ax.plot(*envelope(t, result.stiffness), lw=0.8, color="C0", label="estimate")
+    if reference and result.reference is not None:
+        ax.plot(*envelope(t, result.reference), lw=0.9, color="k", ls="--", label="reference")
+    obs = result.observable if result.observable.any() else np.ones_like(result.observable)
+    values = [result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs]]
+    if reference and result.reference is not None:
+        values.append(result.reference[obs])
+    limits = robust_limits(np.concatenate(values), pad=0.2)
+    if limits is not None:
+        ax.set_ylim(*limits)
+    ax.set_ylabel(f"stiffness [{u['stiffness']}]")
+    ax.legend(loc="upper left", ncols=3)
+
+
+def time_page(result):
+    """Page 2: angle, torque and stiffness (with its band) over time; uninformed stretches grey."""
+    trial = result.trial
+    u, word = trial.units, names(trial)
+    fig = new_page("Signals and stiffness over time")
+    axes = fig.subplots(3, 1, sharex=True)
+    axes[0].plot(*envelope(trial.time, trial.angle), lw=0.6, color="C2")
+    axes[0].set_ylabel(f"{word['angle']} [{u['angle']}]")
+    key, torque = recorded_torque(result)
+    axes[1].plot(*envelope(trial.time, torque), lw=0.6, color="C1")
+    axes[1].set_ylabel(f"{word[key]} [{u[key]}]")
+    _stiffness_axes(axes[2], result)
+    axes[2].set_xlabel("time [s]")
+    axes[2].set_xlim(trial.time[0], trial.time[-1])
+    axes[2].set_title("grey: not informed by motion (no estimate there, only the model's drift)",
+                      fontsize=FONT["small"], loc="right")
+    return fig
+
+
+def relation_page(result):
+    """Page 3: stiffness against angle and against torque, informed samples coloured by time."""
+    trial = result.trial
+    u, word = trial.units, names(trial)
+    obs = np.flatnonzero(result.observable)
+    if obs.size == 0:
+        fig = new_page("Stiffness against angle and torque", constrained=False)
+        text_panel(fig.add_axes((0.06, 0.5, 0.88, 0.38)), "No sample of this trial is informed by motion, so the "
+                   "stiffness cannot be related to the angle or the torque.", wrap=90)
+        return fig
+    fig = new_page("Stiffness against angle and torque")
+    axes = fig.subplots(2, 1)
+    obs = obs[::max(1, int(np.ceil(obs.size / MAX_POINTS)))]
+    key, torque = recorded_torque(result)
+    limits = robust_limits(result.stiffness[obs], pad=0.15, pct=(0.5, 99.5))
+    for ax, x, label in ((axes[0], trial.angle, f"{word['angle']} [{u['angle']}]"),
+                         (axes[1], torque, f"{word[key]} [{u[key]}]")):
+        points = ax.scatter(x[obs], result.stiffness[obs], c=trial.time[obs], s=3, lw=0, cmap="viridis",
+                            rasterized=True)
+        ax.set_xlabel(label)
+        ax.set_ylabel(f"stiffness [{u['stiffness']}]")
+        if limits is not None:
+            ax.set_ylim(*limits)
+        fig.colorbar(points, ax=ax, label="time [s]", shrink=0.9)
+    half = np.median(0.5 * (result.stiffness_hi - result.stiffness_lo)[obs])
+    axes[0].set_title(f"{obs.size} informed samples, colour: time in the trial; typical "
+                      f"{100 * result.ci_level:.0f} % band ±{half:.3g} {u['stiffness']}", fontsize=FONT["small"],
+                      loc="right")
+    return fig
+
+
+def reference_page(result):
+    """Error against the reference stiffness (``stiffness_true`` or a calibration).
+
+    Returns
+    -------
+    Figure or None
+        None when the result has no reference.
+    """
+    if result.reference is None:
+        return None
+    t, u = result.trial.time, result.trial.units
+    ref = np.asarray(result.reference, float)
+    fig = new_page("Error against the reference stiffness")
+    gs = fig.add_gridspec(3, 2, height_ratios=[1.0, 1.0, 0.8])
+    ax0 = fig.add_subplot(gs[0, :])
+    ax1 = fig.add_subplot(gs[1, :], sharex=ax0)
+    _stiffness_axes(ax0, result)
+    safe = np.where(ref != 0, np.abs(ref), np.nan)
+    rel = 100 * (result.stiffness - ref) / safe
+    width = 100 * 0.5 * (result.stiffness_hi - result.stiffness_lo) / safe
+    shade_false(ax1, t, result.observable)
+    ax1.fill_between(*envelope_band(t, -width, width), color="C0", alpha=0.25, lw=0,
+                     label=f"half-width of the {100 * result.ci_level:.0f} % band")
+    ax1.plot(*envelope(t, rel), lw=0.7, color="C3", label="(estimate − reference) / reference")
+    ax1.axhline(0, color="k", lw=0.6)
+    ax1.axvspan(t[0], t[0] + REFERENCE_SKIP_S, color="C1", alpha=0.12, lw=0, label="left out (first 2 s)")
+    use = result.observable & (t - t[0] >= REFERENCE_SKIP_S)
+    limits = robust_limits(np.concatenate([rel[use], width[use], -width[use]]) if use.any() else rel, pad=0.3)
+    if limits is not None:
+        ax1.set_ylim(*limits)
+    ax1.set_ylabel("relative error [%]")
+    ax1.set_xlabel("time [s]")
+    ax1.set_xlim(t[0], t[-1])
+    ax1.legend(loc="upper right", ncols=2)
+    err = result.reference_error(skip=REFERENCE_SKIP_S)
+    ax2 = fig.add_subplot(gs[2, 0])
+    ax3 = fig.add_subplot(gs[2, 1])
+    good = use & np.isfinite(rel)
+    if good.any():
+        ax2.hist(np.abs(rel[good]), bins=40, color="C3", alpha=0.8)
+        ax2.set_xlabel("|relative error| [%]")
+        ax2.set_ylabel("samples")
+        if err and err["median"] is not None:
+            ax2.axvline(100 * err["median"], color="k", lw=1, label="median")
+            ax2.axvline(100 * err["p90"], color="k", lw=1, ls="--", label="90th percentile")
+            ax2.legend(loc="upper right")
+    else:
+        text_panel(ax2, "No informed sample after the first 2 s: no error to show.")
+    rows = [("Samples used", f"{err['n']} (informed, after the first {REFERENCE_SKIP_S:g} s)")]
+    if err["median"] is not None:
+        rows += [("Median error", f"{100 * err['median']:.3g} %"),
+                 ("90th percentile", f"{100 * err['p90']:.3g} %"),
+                 ("Band coverage", f"{100 * err['coverage']:.1f} % of samples inside the "
+                                   f"{100 * result.ci_level:.0f} % band")]
+    rows.append(("Reference", "stiffness_true column" if result.trial.stiffness_true is not None
+                 and np.array_equal(ref, result.trial.stiffness_true) else "calibration curve"))
+    rows.append(("Reference range", f"{fmt(np.nanmin(ref))} to {fmt(np.nanmax(ref), u['stiffness'])}"))
+    text_panel(ax3, rows, title="Error against the reference", key_width=0.42, wrap=30)
+    return fig

@@ -1,0 +1,133 @@
+"""The data-quality page of the per-trial report: sampling, the filter bandwidth against the
+spectra, quantisation against the signal, the observer's settings and the MCMC diagnostics.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .common import FONT, fmt, is_constant, new_page, text_panel
+from .pages import names, recorded_torque
+
+
+def spectrum(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """Amplitude spectral density of a detrended signal (Welch, as the bandwidth choice uses).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+    fs : float, Hz
+
+    Returns
+    -------
+    freq : ndarray, Hz
+    asd : ndarray, unit of x per √Hz
+    """
+    from scipy import signal
+    x = signal.detrend(np.asarray(x, dtype=float))
+    nperseg = int(min(len(x), max(256, 2 ** np.ceil(np.log2(4 * fs)))))
+    freq, psd = signal.welch(x, fs=fs, nperseg=nperseg)
+    return freq, np.sqrt(psd)
+
+
+def _spectrum_axes(ax, x, fs, *, label, unit, cutoff, edge, step, floor=None):
+    if is_constant(x):
+        text_panel(ax, f"The {label} is constant ({fmt(float(np.mean(x)), unit)}): it has no spectrum.")
+        return
+    freq, asd = spectrum(x, fs)
+    keep = (freq > 0) & (asd > 0)
+    if keep.sum() < 2:
+        text_panel(ax, f"The {label} has no spectrum to show (too short or a straight line).")
+        return
+    ax.loglog(freq[keep], asd[keep], lw=0.8, color="C0", label=f"{label} spectrum")
+    if cutoff is not None:
+        ax.axvline(cutoff, color="C3", lw=1.2, label=f"low-pass corner {cutoff:.3g} Hz")
+    if edge:
+        ax.axvline(edge, color="C1", lw=1, ls="--", label=f"signal edge {edge:.3g} Hz")
+    if floor:
+        ax.axhline(np.sqrt(floor), color="0.4", lw=0.8, ls=":", label="noise floor")
+    if step:
+        ax.axhline(step / np.sqrt(6 * fs), color="C2", lw=0.8, ls="-.", label="quantisation noise q/√(6 fs)")
+    ax.set_xlim(freq[keep][0], fs / 2)
+    bottom = np.percentile(asd[keep], 0.5)
+    ax.set_ylim(bottom / 3, asd[keep].max() * 3)
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel(f"{label} ASD [{unit}/√Hz]")
+    ax.legend(loc="lower left", fontsize=FONT["small"], framealpha=0.85)
+
+
+def _rms(x) -> float:
+    """RMS about the mean (0 for a constant signal, whatever its round-off)."""
+    return 0.0 if is_constant(x) else float(np.std(np.asarray(x, float)))
+
+
+def _quantisation_rows(label, unit, step, x):
+    rms = _rms(x)
+    rows = [(f"{label} step", f"{fmt(step, unit)}" if step else "none found (continuous)"),
+            (f"{label} RMS", fmt(rms, unit))]
+    if step and rms > 0:
+        rows.append(("  step / RMS", f"{100 * step / rms:.3g} % ({np.log2(rms / step):.1f} bits over the RMS)"))
+    return rows
+
+
+def _mcmc_rows(result):
+    ident = result.details.get("identification") or {}
+    mcmc = ident.get("mcmc")
+    if not mcmc:
+        why = "direct variant" if result.variant == "direct" else "inertia and damping given"
+        return f"No MCMC was run ({why})."
+    rows = [("sampler", f"{mcmc.get('sampler', 'emcee')}, seed {mcmc.get('seed')}"),
+            ("walkers × steps", f"{mcmc.get('n_walkers')} × {mcmc.get('n_steps')} "
+                                f"(burn-in {mcmc.get('burn_in')}, thin {mcmc.get('thin')})")]
+    for name, tau in (mcmc.get("autocorr_time") or {}).items():
+        short = {"log_measurement": "τ ln R", "log_torque_walk": "τ ln Q_s",
+                 "log_stiffness_walk": "τ ln Q_σ"}.get(name, f"τ {name}")
+        rows.append((short, f"{fmt(tau, 'steps', 3)}"))
+    rows += [("chain / τ", f"{fmt(mcmc.get('chain_in_autocorr_times'), '', 3)} (≥ 50 wanted)"),
+             ("acceptance", f"{fmt(mcmc.get('acceptance_fraction'), '', 3)}"),
+             ("converged", "yes" if mcmc.get("converged") else "NO: chain shorter than 50 τ"),
+             ("decimation", f"{ident.get('decimation', '—')} samples per filter step")]
+    return rows
+
+
+def quality_page(result):
+    """Data quality: sampling, bandwidth, quantisation, observer settings, MCMC diagnostics."""
+    trial, d = result.trial, result.details
+    u, word = trial.units, names(trial)
+    bw = d.get("bandwidth") or {}
+    key, torque = recorded_torque(result)
+    fig = new_page("Data quality")
+    gs = fig.add_gridspec(4, 2, height_ratios=[0.85, 1.2, 1.2, 1.05])
+    sampling = [("rate", f"{trial.fs:.6g} Hz (step {1e3 * trial.sample_period:.4g} ms)"),
+                ("samples", f"{trial.n_samples} over {trial.duration:.4g} s")]
+    reading = [w for w in trial.warnings] or ["none"]
+    sampling += [("reading notes" if i == 0 else "", w) for i, w in enumerate(reading)]
+    text_panel(fig.add_subplot(gs[0, 0]), sampling, title="Sampling", key_width=0.3, wrap=42,
+               fontsize=FONT["small"])
+    cutoff = bw.get("cutoff_hz")
+    chain = d.get("derivatives", "zero-phase")
+    filt = "paper's causal chain (Sec. V)" if chain == "paper" else (
+        f"zero-phase Butterworth, corner {cutoff:.4g} Hz" if cutoff else "none (signal edge above fs/4)")
+    observer = [("derivatives", filt),
+                ("signal edge", fmt(bw.get("signal_edge_hz"), "Hz")),
+                ("motion frequency", fmt(d.get("motion_frequency_hz"), "Hz")),
+                ("range of motion", fmt(d.get("range_of_motion"), u["angle"])),
+                ("observer gain α", f"{fmt(d.get('observer_gain'), '1/' + u['angle'])} "
+                                    f"(memory {fmt(d.get('observer_memory'), u['angle'], 3)})"),
+                ("informed window", f"{fmt(d.get('observable_window_s'), 's', 3)}; speed above "
+                                    f"{fmt(d.get('velocity_threshold'), u['angle'] + '/s', 3)}"),
+                ("informed", f"{100 * result.observable_fraction:.1f} % of the samples")]
+    text_panel(fig.add_subplot(gs[0, 1]), observer, title="Filter and observer", key_width=0.36, wrap=36,
+               fontsize=FONT["small"])
+    edge = bw.get("signal_edge_hz")
+    _spectrum_axes(fig.add_subplot(gs[1, :]), trial.angle, trial.fs, label=word["angle"], unit=u["angle"],
+                   cutoff=cutoff, edge=edge, step=bw.get("quantisation_step"), floor=bw.get("noise_floor"))
+    _spectrum_axes(fig.add_subplot(gs[2, :]), torque, trial.fs, label=word[key], unit=u[key],
+                   cutoff=cutoff, edge=edge, step=d.get("torque_quantisation_step"))
+    quant = (_quantisation_rows(word["angle"], u["angle"], bw.get("quantisation_step"), trial.angle)
+             + _quantisation_rows(word[key], u[key], d.get("torque_quantisation_step"), torque))
+    text_panel(fig.add_subplot(gs[3, 0]), quant, title="Quantisation", key_width=0.36, wrap=36,
+               fontsize=FONT["small"])
+    text_panel(fig.add_subplot(gs[3, 1]), _mcmc_rows(result), title="MCMC (inertia, damping)", key_width=0.36,
+               wrap=36, fontsize=FONT["small"])
+    return fig

@@ -1,0 +1,200 @@
+"""PDF reports: pages, document metadata, every plot carries data, legible fonts, the batch overview."""
+
+import dataclasses
+import hashlib
+import json
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import limbstiff
+from limbstiff.posterior import Posterior
+from limbstiff.provenance import dependency_versions, settings_hash
+from limbstiff.simulate import simulate
+
+from .conftest import multisine_trial
+
+matplotlib = pytest.importorskip("matplotlib")
+
+from limbstiff.report import batch_figures, report_figures, write_batch_overview, write_report  # noqa: E402
+from limbstiff.report.batch import TRIALS_PER_PAGE, order_rows  # noqa: E402
+from limbstiff.report.common import MIN_FONT, TEXT_PANEL  # noqa: E402
+
+UNITS = {"stiffness": "N·m/rad", "inertia": "kg·m²", "damping": "N·m·s/rad"}
+
+
+def page_count(pdf: bytes) -> int:
+    """Page objects of a PDF (matplotlib writes them uncompressed): /Type /Page, not /Pages."""
+    return len(re.findall(rb"/Type\s*/Page(?![A-Za-z])", pdf))
+
+
+def has_data(ax) -> bool:
+    """An axes shows data: a line with ≥ 2 finite points, scatter points, a collection with a
+    finite path (band, bars, contour, colour bar), an image, or a bar/histogram patch. Reference
+    lines and spans (axvline, axvspan: not in data coordinates) do not count."""
+    from matplotlib.collections import PathCollection
+    from matplotlib.patches import Rectangle
+    for line in ax.get_lines():
+        x, y = (np.asarray(v, dtype=float) for v in line.get_data())
+        if line.get_transform() is ax.transData and np.count_nonzero(np.isfinite(x) & np.isfinite(y)) >= 2:
+            return True
+    for coll in ax.collections:
+        if isinstance(coll, PathCollection):
+            offsets = np.asarray(coll.get_offsets(), dtype=float).reshape(-1, 2)
+            if np.isfinite(offsets).all(axis=1).any():
+                return True
+        elif any(len(p.vertices) >= 2 and np.isfinite(p.vertices).all() for p in coll.get_paths()):
+            return True
+    if ax.images:
+        return True
+    return any(isinstance(p, Rectangle) and p.get_data_transform() is ax.transData and p.get_height() > 0
+               and p.get_width() > 0 for p in ax.patches)
+
+
+def check_figures(figures):
+    """Every axes has data or is marked as a text panel; every text is at least MIN_FONT."""
+    from matplotlib.text import Text
+    for k, fig in enumerate(figures, start=1):
+        assert tuple(np.round(fig.get_size_inches(), 2)) == (8.27, 11.69), f"page {k} is not A4 portrait"
+        for ax in fig.axes:
+            if ax.get_gid() == TEXT_PANEL:
+                assert ax.texts, f"page {k}: an empty text panel"
+                continue
+            assert has_data(ax), f"page {k}: axes {ax.get_xlabel()!r}/{ax.get_ylabel()!r} shows no data"
+        for text in fig.findobj(Text):
+            if text.get_visible() and text.get_text().strip():
+                assert text.get_fontsize() >= MIN_FONT, f"page {k}: {text.get_text()!r} in {text.get_fontsize()} pt"
+
+
+def labels(figures) -> str:
+    return " ".join(ax.get_xlabel() + " " + ax.get_ylabel() for fig in figures for ax in fig.axes)
+
+
+@pytest.fixture(scope="module")
+def elbow():
+    trial = simulate("elbow", seed=3, params={"duration": 10.0})
+    return limbstiff.analyze(trial, seed=0)
+
+
+@pytest.fixture(scope="module")
+def fixed():
+    return limbstiff.analyze(multisine_trial(duration=4.0), inertia=0.06, damping=0.45, seed=0)
+
+
+def test_trial_report_pages_metadata_and_data(elbow, tmp_path):
+    assert elbow.posterior is not None and elbow.reference is not None
+    path = write_report(elbow, tmp_path / "report.pdf")
+    pdf = path.read_bytes()
+    assert pdf.startswith(b"%PDF")
+    assert page_count(pdf) == 6          # summary, time, relations, posterior, quality, reference
+    assert b"/Title (limbstiff stiffness report: elbow)" in pdf
+    assert f"/Creator (limbstiff {limbstiff.__version__})".encode() in pdf
+    assert b"/Subject (" in pdf
+    assert not list(tmp_path.glob(".*.tmp"))        # written atomically, no temporary left
+    figures = report_figures(elbow)
+    check_figures(figures)
+    text = labels(figures)
+    for unit in ("[rad]", "[N·m]", "[N·m/rad]", "[kg·m²]", "[N·m·s/rad]", "[Hz]", "[s]", "[%]"):
+        assert unit in text
+    footers = [t.get_text() for fig in figures for t in fig.texts if t.get_text().startswith("limbstiff ")]
+    assert len(footers) == len(figures)
+    settings = (elbow.summary().get("settings_sha256") or settings_hash(elbow.settings))[:12]
+    assert all(settings in f and "numpy" in f and "seed 0" in f for f in footers)
+
+
+def test_fixed_inertia_and_damping_say_so(fixed):
+    assert fixed.posterior is None
+    figures = report_figures(fixed)
+    assert len(figures) == 6                       # the synthetic trial has a reference
+    check_figures(figures)
+    posterior_page = figures[3]
+    panels = [ax for ax in posterior_page.axes if ax.get_gid() == TEXT_PANEL]
+    assert len(panels) == len(posterior_page.axes) == 1
+    assert "given, not identified" in " ".join(t.get_text() for t in panels[0].texts)
+
+
+def test_direct_translational_trial():
+    result = limbstiff.analyze(simulate("paper-exp-spring", seed=1, params={"duration": 4.0}), seed=0)
+    assert result.variant == "direct" and result.trial.kind == "translational"
+    figures = report_figures(result)
+    check_figures(figures)
+    text = labels(figures)
+    assert "[N/m]" in text and "position [m]" in text and "elastic force [N]" in text
+    assert "N·m" not in text
+
+
+def test_unobservable_constant_torque_and_one_fixed_parameter(fixed, elbow, tmp_path):
+    """Degenerate results still give a complete report: nothing informed, a constant torque."""
+    n = fixed.trial.n_samples
+    trial = dataclasses.replace(fixed.trial, torque=np.full(n, 0.3), stiffness_true=None)
+    result = dataclasses.replace(fixed, trial=trial, observable=np.zeros(n, bool), reference=None,
+                                 stiffness=np.full(n, 12.0), stiffness_lo=np.full(n, 12.0),
+                                 stiffness_hi=np.full(n, 12.0))
+    figures = report_figures(result)
+    assert len(figures) == 5                       # no reference page
+    check_figures(figures)
+    assert page_count(write_report(result, tmp_path / "r.pdf").read_bytes()) == 5
+    # damping given, inertia identified: the draws' damping column is constant
+    draws = elbow.posterior.draws.copy()
+    draws[:, 1] = 0.45
+    one = dataclasses.replace(elbow, posterior=Posterior(draws, elbow.posterior.diagnostics),
+                              damping=limbstiff.result.Interval.fixed(0.45))
+    check_figures([report_figures(one)[3]])
+
+
+def _ok_row(name, k, **meta):
+    return {"trial": name, "status": "ok", "stiffness": {"median": k, "lo": 0.9 * k, "hi": 1.1 * k},
+            "inertia": {"median": 0.06, "lo": 0.055, "hi": 0.065}, "damping": {"median": 0.4, "lo": 0.35, "hi": 0.45},
+            "observable_fraction": 0.9, "metadata": meta, "units": UNITS}
+
+
+def test_batch_overview(tmp_path):
+    rows = [_ok_row("t3", 20.0, subject="S10", condition="b"), _ok_row("t1", 10.0, subject="S2", condition="a"),
+            _ok_row("t2", 15.0, subject="S2"), _ok_row("t4", 30.0, condition="a"),
+            dict(_ok_row("direct", 40.0, subject="S2", condition="a"), inertia=None, damping=None),
+            {"trial": "bad", "status": "failed", "error": "bad.csv: time is not strictly increasing at sample 7"}]
+    ordered = [r["trial"] for r in order_rows(rows, ["subject", "condition"])]
+    # S2 before S10 (natural order); a missing key sorts last; failed rows lack metadata
+    assert ordered == ["direct", "t1", "t2", "t3", "t4", "bad"]
+    assert [r["trial"] for r in order_rows(rows)] == ["bad", "direct", "t1", "t2", "t3", "t4"]
+    figures = batch_figures(rows, sort_by=["subject", "condition"])
+    assert len(figures) == 2                       # one plot page, one table page
+    check_figures(figures)
+    page = " ".join(t.get_text() for fig in figures for t in fig.texts)
+    assert "subject: S2 · condition: a" in page and "time is not strictly increasing" in page
+    ticks = [t.get_text() for t in figures[0].axes[0].get_yticklabels()]
+    assert ticks == ["direct", "t1", "t2", "t3", "t4"]
+    path = write_batch_overview(rows, tmp_path / "overview.pdf", sort_by=["subject", "condition"])
+    pdf = path.read_bytes()
+    assert page_count(pdf) == 2 and b"/Title (limbstiff batch overview: 6 trials)" in pdf
+
+
+def test_batch_overview_paginates_and_survives_all_failed():
+    rows = [_ok_row(f"trial{i:03d}", 5.0 + i % 37, subject=f"S{i % 9}") for i in range(200)]
+    figures = batch_figures(rows, sort_by=["subject"])
+    plots = [f for f in figures if f.axes]
+    assert len(plots) == 5
+    for fig in plots:
+        assert 0 < len(fig.axes[0].get_yticks()) <= TRIALS_PER_PAGE
+    failed = batch_figures([{"trial": "x", "status": "failed", "error": "no"}])
+    check_figures(failed)
+
+
+def test_provenance():
+    versions = dependency_versions()
+    assert {"numpy", "scipy", "pandas", "emcee", "matplotlib"} <= set(versions)
+    assert versions["numpy"] == np.__version__
+    versions["numpy"] = "changed"
+    assert dependency_versions()["numpy"] == np.__version__          # cached values are not shared
+    settings = {"b": 1, "a": [1, 2], "c": {"z": None}}
+    assert settings_hash(settings) == hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:12]
+
+
+def test_analysis_does_not_import_matplotlib():
+    code = ("import sys, limbstiff, limbstiff.analysis, limbstiff.provenance, limbstiff.result; "
+            "limbstiff.provenance.dependency_versions(); "
+            "assert 'matplotlib' not in sys.modules, 'matplotlib imported'")
+    subprocess.run([sys.executable, "-c", code], check=True)
