@@ -114,15 +114,22 @@ def full_analyze(trial, pdf: bool, folder: Path) -> float:
 
 
 MEMORY_SCRIPT = """
-import resource, sys, time
+import sys, time
 from limbstiff.io import read_trial
 from limbstiff.analysis import analyze
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+
+def peak_mb():
+    # VmHWM: this process's own peak resident set (ru_maxrss would carry over the parent's
+    # peak through fork and exec)
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+
+base = peak_mb()
 t0 = time.perf_counter()
 trial = read_trial(sys.argv[1])
 result = analyze(trial, seed=0)
-print(time.perf_counter() - t0, base / 1024, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-      trial.n_samples)
+print(time.perf_counter() - t0, base, peak_mb(), trial.n_samples)
 """
 
 

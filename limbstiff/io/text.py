@@ -20,6 +20,7 @@ import csv as _csv
 import io
 import re
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -69,18 +70,37 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     delimiter = getattr(protocol, "delimiter", "auto")
     decimal = getattr(protocol, "decimal", "auto")
     unit_row = getattr(protocol, "unit_row", "auto")
-    metadata, header_line, rest = _split(where, _decode(where, raw))
+    text = _decode(where, raw)
+    body = _body(text, raw)
+    if body is None:   # blank lines or bare CR line ends among the rows: line by line
+        metadata, header_line, rest = _split(where, text)
+    else:
+        metadata, header_line, rest = body.metadata, body.header, body.head
     if delimiter == "auto":
         delimiter = _detect_delimiter(header_line)
     headers = _headers(where, header_line, delimiter, forced=getattr(protocol, "delimiter", "auto") != "auto")
+    n_head = len(rest)
     units, rest = _unit_row(where, rest, delimiter, unit_row)
     if not rest:
         raise TrialError(where, "no data rows below the header")
     decimal = _detect_decimal(where, rest, delimiter, decimal)
     columns = resolve_columns(where, headers, protocol, units=units)
     kind = joint_kind(where, columns)
-    numbers = [n for n, _ in rest]
-    values = _parse(where, headers, columns, [line for _, line in rest], numbers, delimiter, decimal)
+    if body is None:
+        numbers = [n for n, _ in rest]
+        lines = [line for _, line in rest]
+
+        def source():
+            return io.StringIO("\n".join(lines))
+    else:
+        # the rows straight from the file's bytes: no list of lines, no second copy as text
+        start = body.offsets[n_head - len(rest)]
+        numbers = range(rest[0][0], rest[0][0] + body.rows - (n_head - len(rest)))
+
+        def source():
+            return io.BytesIO(raw[start:])
+    del text
+    values = _parse(where, headers, columns, source, numbers, delimiter, decimal)
     used = {c.index for c in columns.values()}
     ignored = [h for i, h in enumerate(headers) if i not in used and h]
     warnings = ["ignored column(s): " + ", ".join(f"'{h}'" for h in ignored)] if ignored else []
@@ -118,6 +138,65 @@ def _split(where: str, text: str):
         raise TrialError(where, "no header row (only '#' metadata lines)")
     rest = [(j + 1, all_lines[j]) for j in range(k + 1, len(all_lines)) if all_lines[j].strip()]
     return metadata, all_lines[k], rest
+
+
+class _Body(NamedTuple):
+    metadata: dict
+    header: str
+    head: list          # the first rows below the header, as (line number, line)
+    offsets: list       # byte offset in the file of each of those rows
+    rows: int           # rows below the header in all
+
+
+_BLANK = re.compile(r"\n[ \t\r]*\n|\n[ \t\r]+$")
+_BARE_CR = re.compile(r"\r(?!\n)")
+
+
+def _body(text: str, raw: bytes) -> _Body | None:
+    """Metadata, header and the first rows, with the byte offsets of those rows, for a file
+    whose rows are all non-blank and end in LF or CRLF; None otherwise."""
+    if _BARE_CR.search(text):
+        return None
+    lines = _lines(text)
+    metadata: dict[str, str] = {}
+    pos = 3 if raw.startswith(b"\xef\xbb\xbf") else 0    # the BOM, dropped from text
+    number, header, char = 0, None, 0
+    for line in lines:
+        number += 1
+        char += len(line)
+        pos += len(line.encode("utf-8"))
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            key, colon, value = stripped[1:].partition(":")
+            if colon and key.strip():
+                metadata[key.strip()] = value.strip()
+            continue
+        header = line.rstrip("\r\n")
+        break
+    if header is None or _BLANK.search(text, char - 1):
+        return None
+    head, offsets = [], []
+    for line in lines:
+        number += 1
+        head.append((number, line.rstrip("\r\n")))
+        offsets.append(pos)
+        pos += len(line.encode("utf-8"))
+        if len(head) > _SNIFF_LINES:
+            break
+    rows = text.count("\n", char) + (0 if text.endswith("\n") else 1) if len(text) > char else 0
+    return _Body(metadata, header, head, offsets, rows)
+
+
+def _lines(text: str):
+    """The lines of ``text`` with their ends, lazily (no list of millions of strings)."""
+    start = 0
+    while start < len(text):
+        end = text.find("\n", start)
+        end = len(text) if end < 0 else end + 1
+        yield text[start:end]
+        start = end
 
 
 def _detect_delimiter(line: str) -> str:
@@ -196,10 +275,14 @@ def _detect_decimal(where: str, rest, delimiter: str, setting: str) -> str:
     return setting
 
 
-def _parse(where, headers, columns, lines, numbers, delimiter, decimal) -> dict[str, np.ndarray | None]:
-    """Numeric SI arrays of the used columns; every cell checked, none coerced silently."""
+def _parse(where, headers, columns, source, numbers, delimiter, decimal) -> dict[str, np.ndarray | None]:
+    """Numeric SI arrays of the used columns; every cell checked, none coerced silently.
+
+    ``source()`` gives a fresh file object over the data rows; ``numbers[k]`` is the file's
+    line number of row k.
+    """
     used = {c.index for c in columns.values()}
-    read = dict(where=where, lines=lines, numbers=numbers, width=len(headers), sep=delimiter, decimal=decimal)
+    read = dict(where=where, source=source, numbers=numbers, width=len(headers), sep=delimiter, decimal=decimal)
     try:  # fast path: the used columns parse as floats (no NaN words: na_filter is off)
         frame = _read_rows(**read, dtype={i: float for i in used})
     except TrialError:
@@ -230,9 +313,9 @@ def _parse(where, headers, columns, lines, numbers, delimiter, decimal) -> dict[
     return values
 
 
-def _read_rows(where, lines, numbers, width, sep, decimal, dtype) -> pd.DataFrame:
+def _read_rows(where, source, numbers, width, sep, decimal, dtype) -> pd.DataFrame:
     try:
-        return pd.read_csv(io.StringIO("\n".join(lines)), header=None, names=list(range(width)), sep=sep,
+        return pd.read_csv(source(), header=None, encoding="utf-8", names=list(range(width)), sep=sep,
                            decimal=decimal, index_col=False, dtype=dtype, na_filter=False,
                            skip_blank_lines=False)
     except pd.errors.ParserError as exc:
