@@ -1,0 +1,241 @@
+"""The diagnosis PDF: the gap map over time, frequency and regime, the ranked effects with
+before/after, and the residual before and after the chosen effects.
+
+Plotting only (non-interactive Agg backend, Figure objects, PdfPages); the numbers come from a
+:class:`~limbstiff.diagnose.result.Diagnosis`. Written atomically.
+"""
+
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..io.atomic import atomic_output
+
+A4 = (8.27, 11.69)
+#: Trials given their own pages (the rest are summarised in diagnosis.json).
+MAX_TRIAL_PAGES = 8
+
+
+def _pct(x, digits=1):
+    return "—" if x is None else f"{100 * x:.{digits}f} %"
+
+
+def _footer(fig, d):
+    fig.text(0.06, 0.015, f"limbstiff {__version__} · diagnose · seed {d.seed}", fontsize=7, color="0.4")
+
+
+def _lines(fig, y, items, *, size=9, indent=0.06, width=105, step=0.019):
+    for text in items:
+        for j, line in enumerate(textwrap.wrap(text, width) or [""]):
+            fig.text(indent + (0.02 if j else 0.0), y, line, fontsize=size)
+            y -= step
+    return y
+
+
+def _summary_page(fig, d):
+    fig.text(0.06, 0.955, "Sim-to-real gap: diagnosis", fontsize=15, weight="bold")
+    names = ", ".join(t["trial"] for t in d.trials)
+    y = _lines(fig, 0.92, [f"Trials: {names}", f"Held out: {d.heldout['scheme']} "
+                           f"({d.heldout['units']} scoring units of about one motion period)"])
+    y -= 0.01
+    fig.text(0.06, y, "Nominal model (m·ÿ + b·ẏ + local elastic torque)", fontsize=11, weight="bold")
+    y -= 0.024
+    items = [f"{t['trial']}: m = {t['inertia']:.4g}, b = {t['damping']:.4g} ({t['mechanics']}), "
+             f"median stiffness {t['stiffness_median']:.4g}, gap {_pct(t['gap_train'], 2)} "
+             f"(noise floor ≥ {_pct(t['noise_floor'], 2)})" for t in d.trials[:12]]
+    items.append(f"Gap (variance not accounted for): {_pct(d.gap_train, 2)} in-sample, "
+                 f"{_pct(d.gap_heldout, 2)} held out; white sensor noise alone: ≥ {_pct(d.noise_floor, 2)}")
+    y = _lines(fig, y, items)
+    y -= 0.01
+    fig.text(0.06, y, "Diagnosis", fontsize=11, weight="bold")
+    y -= 0.024
+    if d.diagnosis:
+        a = d.after
+        bias = (a.get("stiffness_bias") or {}).get("median_relative")
+        lo, hi = a["shrink_heldout_interval"]
+        items = [f"{i + 1}. {name}: " + ", ".join(f"{k} = {v:.4g}" for k, v in a["params"][name].items()
+                                                   if isinstance(v, (int, float)))
+                 for i, name in enumerate(d.diagnosis)]
+        items.append(f"With these effects the held-out gap falls from {_pct(d.gap_heldout, 2)} to "
+                     f"{_pct(a['gap_heldout'], 2)}: shrink {_pct(a['shrink_heldout'])} "
+                     f"[{_pct(lo)}, {_pct(hi)}]" + ("" if bias is None else
+                                                     f"; the nominal stiffness is {100 * bias:+.1f} % off because of them"))
+    else:
+        items = ["None: no candidate effect removes a significant and relevant share of the held-out gap; "
+                 "the nominal model explains these data as far as the library can tell."]
+    y = _lines(fig, y, items)
+    if d.ambiguities:
+        y -= 0.01
+        fig.text(0.06, y, "Cannot be told apart", fontsize=11, weight="bold")
+        y -= 0.024
+        y = _lines(fig, y, [f"{' vs '.join(a['effects'])}: {a['reason']}. Separate by {a['separate_by']}."
+                            for a in d.ambiguities[:6]], size=8, step=0.017)
+    y -= 0.01
+    fig.text(0.06, y, "Notes", fontsize=11, weight="bold")
+    y -= 0.024
+    _lines(fig, y, list(d.notes) + [f"warning: {w}" for w in d.warnings[:4]], size=8, step=0.017)
+    _footer(fig, d)
+
+
+def _effects_page(fig, d):
+    cands = list(d.candidates)
+    ax = fig.add_axes([0.30, 0.55, 0.62, 0.38])
+    ypos = np.arange(len(cands))[::-1]
+    for yy, c in zip(ypos, cands):
+        chosen = c.effect in d.diagnosis
+        ok = c.evidence.get("significant") and c.evidence.get("relevant")
+        color = "C3" if chosen else ("C1" if ok else "0.6")
+        lo, hi = c.shrink_interval
+        ax.barh(yy, 100 * c.shrink_heldout, color=color, alpha=0.8)
+        ax.plot([100 * lo, 100 * hi], [yy, yy], color="k", lw=1)
+    ax.set_yticks(ypos, [c.effect for c in cands])
+    ax.axvline(0, color="k", lw=0.6)
+    ax.set_xlabel("held-out gap removed against the nominal model [%] (bar: estimate, line: interval)")
+    ax.set_title("Candidate effects (red: chosen, orange: significant and relevant, grey: not)", fontsize=9)
+    rows = [["effect", "gap train", "gap held out", "p (Holm)", "stiffness bias"]]
+    for c in cands:
+        bias = (c.stiffness_bias or {}).get("median_relative")
+        rows.append([c.effect, _pct(c.gap_train, 2), _pct(c.gap_heldout, 2),
+                     f"{c.evidence.get('p_adjusted', float('nan')):.3g}",
+                     "—" if bias is None else f"{100 * bias:+.1f} %"])
+    tax = fig.add_axes([0.06, 0.08, 0.88, 0.40])
+    tax.axis("off")
+    table = tax.table(cellText=rows, loc="upper center", cellLoc="left")
+    table.auto_set_font_size(False)
+    table.set_fontsize(8)
+    table.scale(1, 1.25)
+    fig.text(0.06, 0.965, f"Ranked effects; nominal held-out gap {_pct(d.gap_heldout, 2)}", fontsize=12,
+             weight="bold")
+    _footer(fig, d)
+
+
+def _regime_axes(ax, w, w_after, key, title):
+    bins = w["regime"][key]
+    x = np.arange(len(bins))
+    for off, src, color, label in ((-0.2, bins, "C0", "nominal"),
+                                   (0.2, None if w_after is None else w_after["regime"][key], "C3", "after")):
+        if src is None:
+            continue
+        vals = [100 * (b["gap"] or 0.0) for b in src]
+        ax.bar(x + off, vals, width=0.4, color=color, alpha=0.8, label=label)
+    ax.set_xticks(x, [b["bin"][:18] for b in bins], rotation=30, ha="right", fontsize=6)
+    ax.set_title(title, fontsize=8)
+    ax.set_ylabel("gap [%]", fontsize=7)
+
+
+def _map_page(fig, d, name, s):
+    w, wa = s["where"], s.get("where_after")
+    axes = fig.subplots(4, 2, gridspec_kw={"hspace": 0.9, "wspace": 0.3, "top": 0.92, "bottom": 0.08})
+    ax = axes[0, 0]
+    tw = w["time"]
+    edges = list(tw["start_s"]) + [tw["end_s"]]
+    ax.stairs(100 * np.asarray(tw["gap"]), edges, color="C0", label="nominal")
+    if wa is not None:
+        ax.stairs(100 * np.asarray(wa["time"]["gap"]), edges, color="C3", label="after")
+    for cp in tw["change_points_s"]:
+        ax.axvline(cp, color="k", ls=":", lw=0.8)
+    ax.set_title("gap per window (dotted: change points)", fontsize=8)
+    ax.set_xlabel("time [s]", fontsize=7)
+    ax.set_ylabel("gap [%]", fontsize=7)
+    ax.legend(fontsize=6)
+    ax = axes[0, 1]
+    fr = w["frequency"]
+    ax.semilogy(fr["freq_hz"], fr["torque_psd"], color="0.5", lw=0.8, label="torque")
+    ax.semilogy(fr["freq_hz"], fr["residual_psd"], color="C0", lw=0.8, label="residual")
+    if wa is not None:
+        ax.semilogy(wa["frequency"]["freq_hz"], wa["frequency"]["residual_psd"], color="C3", lw=0.8, label="after")
+    ax.set_title("spectra [(N·m)²/Hz]", fontsize=8)
+    ax.set_xlabel("frequency [Hz]", fontsize=7)
+    ax.legend(fontsize=6)
+    ax = axes[1, 0]
+    ax.plot(fr["freq_hz"], fr["coherence"], color="C0", lw=0.8)
+    if wa is not None:
+        ax.plot(wa["frequency"]["freq_hz"], wa["frequency"]["coherence"], color="C3", lw=0.8)
+    ax.axhline(fr["bound"], color="k", ls="--", lw=0.8)
+    ax.set_title(f"coherence of the residual with the angle (dashed: {100 * fr['level']:.0f} % bound)", fontsize=8)
+    ax.set_xlabel("frequency [Hz]", fontsize=7)
+    ax.set_ylim(0, 1)
+    for ax, (key, title) in zip([axes[1, 1], axes[2, 0], axes[2, 1], axes[3, 0], axes[3, 1]],
+                                (("speed", "by speed"), ("reversal", "near reversals"), ("angle", "by angle [rad]"),
+                                 ("torque", "by torque [N·m]"), ("stiffness", "by estimated stiffness"))):
+        _regime_axes(ax, w, wa, key, title)
+    fig.text(0.06, 0.965, f"Where the gap lies — {name}", fontsize=12, weight="bold")
+    _footer(fig, d)
+
+
+def _residual_page(fig, d, name, s):
+    axes = fig.subplots(4, 1, gridspec_kw={"hspace": 0.6, "top": 0.92, "bottom": 0.07})
+    t, r = s["time"], s["residual"]
+    ax = axes[0]
+    ax.plot(t, s["torque"] - np.mean(s["torque"]), color="0.7", lw=0.4, label="torque (centred)")
+    ax.plot(t, r, color="C0", lw=0.4, label="residual, nominal")
+    ax.set_ylabel("N·m", fontsize=7)
+    ax.legend(fontsize=6, loc="upper right")
+    ax.set_title("measured torque and the nominal model's residual", fontsize=8)
+    ax = axes[1]
+    ax.plot(t, r, color="C0", lw=0.4, label="nominal")
+    if "residual_after" in s:
+        ax.plot(t, s["residual_after"], color="C3", lw=0.4, label="after: " + ", ".join(d.diagnosis))
+    ax.set_xlabel("time [s]", fontsize=7)
+    ax.set_ylabel("N·m", fontsize=7)
+    ax.legend(fontsize=6, loc="upper right")
+    ax.set_title("residual before and after the chosen effects", fontsize=8)
+    ax = axes[2]
+    wh = s["where"]["whiteness"]
+    lags = np.asarray(wh["lags"]) * wh["sample_period_s"]
+    ax.plot(lags, wh["acf"], "o-", ms=2, color="C0", label="nominal")
+    if "where_after" in s:
+        ax.plot(lags, s["where_after"]["whiteness"]["acf"], "o-", ms=2, color="C3", label="after")
+    if wh["reference"] is not None:
+        ax.plot(lags, wh["reference"], color="0.5", lw=0.8, label="filtered white noise")
+    ref = np.zeros(len(lags)) if wh["reference"] is None else np.asarray(wh["reference"])
+    ax.fill_between(lags, ref - wh["bound"], ref + wh["bound"], color="0.85", lw=0)
+    ax.set_title(f"residual autocorrelation (band: {100 * wh['level']:.0f} % bound; Ljung–Box p = "
+                 f"{wh['p_value']:.2g})", fontsize=8)
+    ax.set_xlabel("lag [s]", fontsize=7)
+    ax.legend(fontsize=6)
+    ax = axes[3]
+    xc = s["where"]["cross_correlation"]["velocity"]
+    ax.plot(xc["lags_s"], xc["ccf"], color="C0", lw=0.8, label="nominal")
+    if "where_after" in s:
+        xa = s["where_after"]["cross_correlation"]["velocity"]
+        ax.plot(xa["lags_s"], xa["ccf"], color="C3", lw=0.8, label="after")
+    ax.axhspan(-xc["bound"], xc["bound"], color="0.85", lw=0)
+    ax.set_title(f"cross-correlation of the residual with the velocity (peak at {1e3 * xc['peak_lag_s']:.0f} ms; "
+                 f"band: Bartlett {100 * xc['level']:.0f} % bound)", fontsize=8)
+    ax.set_xlabel("lag [s] (positive: residual follows the velocity)", fontsize=7)
+    ax.legend(fontsize=6)
+    fig.text(0.06, 0.965, f"Residual — {name}", fontsize=12, weight="bold")
+    _footer(fig, d)
+
+
+def write_diagnosis_report(diagnosis, path) -> None:
+    """Write the PDF of a :class:`~limbstiff.diagnose.result.Diagnosis`, atomically.
+
+    Pages: summary; ranked effects with held-out shrinkage and intervals; per trial (up to
+    :data:`MAX_TRIAL_PAGES`) the gap map over time, frequency and regime, and the residual
+    before and after the chosen effects with its autocorrelation and cross-correlation.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    from matplotlib.backends.backend_pdf import PdfPages
+    from matplotlib.figure import Figure
+
+    path = Path(path)
+    meta = {"Title": "limbstiff diagnosis", "Creator": f"limbstiff {__version__}",
+            "Subject": ", ".join(t["trial"] for t in diagnosis.trials)}
+    with atomic_output(path) as tmp:
+        with PdfPages(tmp, metadata=meta) as pdf:
+            for page in (_summary_page, _effects_page):
+                fig = Figure(figsize=A4)
+                page(fig, diagnosis)
+                pdf.savefig(fig)
+            for name, s in list(diagnosis.series.items())[:MAX_TRIAL_PAGES]:
+                for page in (_map_page, _residual_page):
+                    fig = Figure(figsize=A4)
+                    page(fig, diagnosis, name, s)
+                    pdf.savefig(fig)
