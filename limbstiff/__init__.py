@@ -25,6 +25,7 @@ _API = {
     "write_report": "limbstiff.report",
     "analyze_files": "limbstiff.pipeline",
     "identify_files": "limbstiff.pipeline",
+    "diagnose": "limbstiff.diagnose.run",
 }
 
 __all__ = ["__version__", *_API]

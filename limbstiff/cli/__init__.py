@@ -18,6 +18,7 @@ COMMANDS = {
     "identify": "Identify inertia and damping (posterior by emcee) without the stiffness.",
     "simulate": "Write a simulated trial (paper scenarios, human limbs, effects).",
     "calibrate": "Fit an exponential spring to force–displacement pairs (paper Sec. V).",
+    "diagnose": "Find where the model misses the data, which unmodelled effect causes it, how far it shrinks.",
 }
 
 
