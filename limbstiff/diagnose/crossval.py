@@ -170,8 +170,11 @@ def _term_rows(problem, i, b, effect, shape):
     return hit
 
 
-def _design(problem, bases, effect: Effect | None, shape):
-    """Projected target (R,) and regressors (R, p_base + p_effect) of base + effect at shape."""
+def _design(problem, bases, effect: Effect | None, shape, share: list | None = None):
+    """Projected target (R,) and regressors (R, p_base + p_effect) of base + effect at shape.
+
+    ``share``, when given, receives per trial the norm of the effect's projected regressors over
+    that of its centred raw ones: the part of its torque the elastic nuisance cannot take up."""
     zs, Xs = [], []
     for i, (b, lay) in enumerate(zip(bases, problem.layouts)):
         rows = lay.rows
@@ -187,7 +190,11 @@ def _design(problem, bases, effect: Effect | None, shape):
             z = proj.project(z_raw)
         X = b.X if proj is b.proj else proj.project(b.regs)
         if regs is not None:
-            X = np.column_stack([X, proj.project(regs)])
+            projected = proj.project(regs)
+            if share is not None:
+                raw = np.linalg.norm(regs - regs.mean(0))
+                share.append(float(np.linalg.norm(projected) / raw) if raw > 0 else 0.0)
+            X = np.column_stack([X, projected])
         zs.append(z)
         Xs.append(X)
     return np.concatenate(zs), np.vstack(Xs)
@@ -197,6 +204,37 @@ def _lstsq(X, z):
     if X.shape[1] == 0:
         return np.zeros(0)
     return np.linalg.lstsq(X, z, rcond=None)[0]
+
+
+def _fold_fits(z: np.ndarray, X: np.ndarray, weights: np.ndarray):
+    """Least squares on several row subsets at once, by the normal equations.
+
+    Parameters
+    ----------
+    z : ndarray, shape (R,)
+    X : ndarray, shape (R, p)
+    weights : ndarray of bool, shape (K, R)
+        Rows of each fit.
+
+    Returns
+    -------
+    coef : ndarray, shape (K, p)
+    rss : ndarray, shape (K,)
+        Residual sums of squares on the rows of each fit.
+    """
+    w = weights.astype(float)
+    zz = w @ (z * z)
+    p = X.shape[1]
+    if p == 0:
+        return np.zeros((len(w), 0)), zz
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    Xs = X / scale
+    gram = np.einsum("kr,rp,rq->kpq", w, Xs, Xs, optimize=True)
+    rhs = (w * z) @ Xs
+    coef_s = np.einsum("kpq,kq->kp", np.linalg.pinv(gram, rcond=1e-10, hermitian=True), rhs)
+    rss = zz - np.einsum("kp,kp->k", coef_s, rhs)
+    return coef_s / scale, np.maximum(rss, 0.0)
 
 
 @dataclass
@@ -221,6 +259,10 @@ class Evaluation:
         In-sample projected residual.
     scheme : str
         ``"folds"`` or ``"interleaved"`` (local terms).
+    absorbed : bool
+        The effect's torque lies (to :data:`ABSORBED_SHARE`) within the elastic nuisance: not fitted.
+    share : float or None
+        Largest share of the effect's torque the nuisance cannot take up, over its shapes.
     base_unit_rss : ndarray or None
         The base's held-out RSS under the same scheme (given for interleaved scoring).
     """
@@ -236,6 +278,16 @@ class Evaluation:
     fold_shapes: list = field(default_factory=list)
     scheme: str = "folds"
     base_unit_rss: np.ndarray | None = None
+    absorbed: bool = False
+    share: float | None = None
+
+
+#: Share of an effect's torque (norm of its part the elastic nuisance cannot take up, over its
+#: own) below which the effect is *absorbed*: indistinguishable from the elastic torque in these
+#: data (a torque that depends on the angle alone, such as gravity over a small range). Its
+#: amplitude would be fitted on the 1 % residue — numerical and noise remnants — so it is not
+#: fitted (−40 dB).
+ABSORBED_SHARE = 0.01
 
 
 def evaluate(problem: Problem, base_components, effect: Effect | None = None, *,
@@ -262,99 +314,83 @@ def evaluate(problem: Problem, base_components, effect: Effect | None = None, *,
     shapes = shapes if shapes is not None else [{}]
     k = problem.n_folds
     p_base = bases[0].X.shape[1]
+    masks = problem.cache.get("fold_masks")
+    if masks is None:
+        masks = problem.cache["fold_masks"] = (np.vstack([problem.training, np.ones((1, len(problem.fold)), bool)]),
+                                               [problem.fold == j for j in range(k)])
+    weights, tests = masks
     best_train = np.full(k, np.inf)
     held = np.zeros(len(problem.fold))
     fold_shapes = [None] * k
-    best_all = (np.inf, None, None, None)
+    best_all = (np.inf, None, None)
+    best_share = 0.0
     for shape in (shapes if effect is not None else [{}]):
-        z, X = _design(problem, bases, effect, shape)
-        for j in range(k):
-            tr, te = problem.training[j], problem.fold == j
-            coef = _lstsq(X[tr], z[tr])
-            rss = float(np.sum((z[tr] - X[tr] @ coef) ** 2))
-            if rss < best_train[j]:
-                best_train[j] = rss
-                held[te] = z[te] - X[te] @ coef
-                fold_shapes[j] = shape
-        coef = _lstsq(X, z)
-        resid = z - X @ coef
-        rss = float(resid @ resid)
-        if rss < best_all[0]:
-            best_all = (rss, shape, coef, X[:, p_base:] @ coef[p_base:], resid)
-    rss, shape, coef, fitted, resid = best_all
+        share = []
+        z, X = _design(problem, bases, effect, shape, share)
+        best_share = max([best_share] + share)
+        coefs, rss = _fold_fits(z, X, weights)
+        for j in np.flatnonzero(rss[:k] < best_train):
+            best_train[j] = rss[j]
+            te = tests[j]
+            held[te] = z[te] - X[te] @ coefs[j]
+            fold_shapes[j] = shape
+        if rss[k] < best_all[0]:
+            best_all = (rss[k], shape, coefs[k])
+    rss, shape, coef = best_all
+    z, X = _design(problem, bases, effect, shape)
+    resid = z - X @ coef
+    absorbed = effect is not None and X.shape[1] > p_base and best_share < ABSORBED_SHARE
+    if absorbed:            # not fitted: score it as the base model
+        base = evaluate(problem, base_components, bases=bases)
+        return Evaluation(effect=effect.name, unit_rss=base.unit_rss, shape=dict(shape),
+                          coef=np.full(X.shape[1] - p_base, np.nan), base_coef=base.base_coef,
+                          rss_train=base.rss_train, fitted=np.zeros(len(z)), residual=base.residual,
+                          fold_shapes=[], absorbed=True, share=best_share)
     return Evaluation(effect=None if effect is None else effect.name, unit_rss=problem.unit_sum(held ** 2),
-                      shape=dict(shape), coef=coef[p_base:], base_coef=coef[:p_base], rss_train=rss,
-                      fitted=fitted, residual=resid, fold_shapes=fold_shapes)
+                      shape=dict(shape), coef=coef[p_base:], base_coef=coef[:p_base], rss_train=float(rss),
+                      fitted=X[:, p_base:] @ coef[p_base:], residual=resid, fold_shapes=fold_shapes,
+                      share=best_share)
 
 
-def _window_columns(lay, y, t):
-    blocks = nominal.nuisance_columns(y, t, lay.window)
-    p = len(nominal.NUISANCE)
-    out = np.zeros((len(lay.rows), p * len(blocks)))
-    for j, block in enumerate(blocks):
-        out[lay.window == j, p * j:p * j + p] = block
+def interleaved(problem: Problem) -> Problem:
+    """The same rows dealt into :data:`LOCAL_FOLDS` interleaved folds of whole units (unit i of a
+    trial in fold i mod 5), with the guard kept out of training around every held-out unit."""
+    hit = problem.cache.get("interleaved")
+    if hit is not None:
+        return hit
+    fold = np.concatenate([lay.unit % LOCAL_FOLDS for lay in problem.layouts])
+    times = np.concatenate([c.time[lay.rows] for c, lay in zip(problem.channels, problem.layouts)])
+    training = np.ones((LOCAL_FOLDS, len(fold)), dtype=bool)
+    for j in range(LOCAL_FOLDS):
+        training[j] = fold != j
+        for i in range(len(problem.layouts)):
+            sel = problem.trial == i
+            t, held = times[sel], times[sel & (fold == j)]
+            if held.size == 0:
+                continue
+            pos = np.searchsorted(held, t)
+            near = np.zeros(len(t), dtype=bool)
+            for cand in (np.clip(pos - 1, 0, held.size - 1), np.clip(pos, 0, held.size - 1)):
+                near |= np.abs(held[cand] - t) <= problem.guard_s
+            training[j, sel] &= ~near
+    out = Problem(channels=problem.channels, layouts=problem.layouts, scheme="interleaved", guard_s=problem.guard_s,
+                  fold=fold, unit=problem.unit, trial=problem.trial, deviation=problem.deviation,
+                  training=training, cache={k: v for k, v in problem.cache.items() if k != "fold_masks"})
+    problem.cache["interleaved"] = out
     return out
 
 
 def evaluate_local(problem: Problem, base_components, effect: Effect, *, shapes, bases=None) -> Evaluation:
-    """Score a local term (no parameter carries over) by predicting held-out units.
+    """Score a local term (no parameter carries over: a drift spline) by predicting held-out units.
 
-    Within each trial, units are dealt into :data:`LOCAL_FOLDS` interleaved folds; for each,
-    the window nuisance, the base's amplitudes and the term's coefficients are fitted on the
-    other units (less a guard around the held-out ones) and predict the held-out units. The base
-    is scored the same way, and both scores are returned.
+    The elastic nuisance is refitted on all the data, as for every model; the term's
+    coefficients (and the base's amplitudes) are fitted on four units in five and predict the
+    fifth (:func:`interleaved`). The base model is scored the same way, and both are returned.
     """
+    inter = interleaved(problem)
     bases = bases if bases is not None else _base(problem, base_components)
-    n_rows = len(problem.fold)
-    base_held = np.zeros(n_rows)
-    best = {"held": None, "train": np.inf}
-    per_shape = {}
-    offset = 0
-    for i_trial, (b, lay) in enumerate(zip(bases, problem.layouts)):
-        rows = lay.rows
-        sl = slice(offset, offset + len(rows))
-        offset += len(rows)
-        t = b.ch.time[rows]
-        W = _window_columns(lay, b.ch.angle[0][rows], t)
-        base_cols = [W, b.regs] + ([b.local] if b.local is not None else [])
-        z = b.ch.elastic_target()[rows]
-        fold = lay.unit % LOCAL_FOLDS
-        train_masks = []
-        for j in range(LOCAL_FOLDS):
-            held_t = t[fold == j]
-            near = np.zeros(len(rows), dtype=bool)
-            if held_t.size:
-                pos = np.searchsorted(held_t, t)
-                for cand in (np.clip(pos - 1, 0, held_t.size - 1), np.clip(pos, 0, held_t.size - 1)):
-                    near |= np.abs(held_t[cand] - t) <= problem.guard_s
-            train_masks.append(~near & (fold != j))
-
-        def score(cols):
-            X = np.column_stack(cols)
-            out = np.zeros(len(rows))
-            for j in range(LOCAL_FOLDS):
-                tr, te = train_masks[j], fold == j
-                coef = _lstsq(X[tr], z[tr])
-                out[te] = z[te] - X[te] @ coef
-            return out
-
-        base_held[sl] = score(base_cols)
-        for i, shape in enumerate(shapes):
-            L = _term_rows(problem, i_trial, b, effect, shape)[2]
-            L = L[:, np.any(np.abs(L) > 0, axis=0)]
-            per_shape.setdefault(i, np.zeros(n_rows))[sl] = score(base_cols + [L])
-    # with several shapes the one predicting best is kept (a selection on held-out data: the
-    # library gives one)
-    scores = {i: float(np.sum(h ** 2)) for i, h in per_shape.items()}
-    i_best = min(scores, key=scores.get)
-    held = per_shape[i_best]
-    shape = shapes[i_best]
-    # in-sample fit with the chosen knots (projected space, like the other candidates)
-    z, X = _design(problem, bases, effect, shape)
-    coef = _lstsq(X, z)
-    resid = z - X @ coef
-    p_base = bases[0].X.shape[1]
-    return Evaluation(effect=effect.name, unit_rss=problem.unit_sum(held ** 2), shape=dict(shape),
-                      coef=coef[p_base:], base_coef=coef[:p_base], rss_train=float(resid @ resid),
-                      fitted=X[:, p_base:] @ coef[p_base:], residual=resid, fold_shapes=[shape],
-                      scheme="interleaved", base_unit_rss=problem.unit_sum(base_held ** 2))
+    base = evaluate(inter, base_components, bases=bases)
+    ev = evaluate(inter, base_components, effect, shapes=shapes, bases=bases)
+    ev.scheme = "interleaved"
+    ev.base_unit_rss = base.unit_rss
+    return ev
