@@ -63,10 +63,13 @@ def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_t
     per = {}
     for trial, res, ch, fitted in zip(trials, results, channels, fitted_per_trial):
         corr = remove(ch, fitted)
-        proto = protocol.override(bandwidth_hz=ch.cutoff_hz)
-        if ch.mechanics != "none":
-            proto = proto.override(inertia=corr.inertia, damping=corr.damping)
         try:
+            proto = protocol.override(bandwidth_hz=ch.cutoff_hz)
+            if ch.mechanics != "none":
+                if not (corr.inertia > 0 and corr.damping > 0):
+                    raise LimbstiffError(f"the corrected inertia ({corr.inertia:.3g}) or damping ({corr.damping:.3g}) "
+                                         "is not positive")
+                proto = proto.override(inertia=corr.inertia, damping=corr.damping)
             again = analyze(_corrected_trial(trial, ch, corr), proto, seed=seed)
         except LimbstiffError as exc:
             per[trial.name] = {"nominal": _median_stiffness(res), "corrected": None, "relative": None,
@@ -198,7 +201,8 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
         if eff.local:
             params["rms"] = float(np.sqrt(np.mean(ev.fitted ** 2)))
         later = [s[name] for s in sel.steps[1:] if name in s]
-        evidence = {"p_value": sc.p_value, "p_adjusted": sc.p_adjusted, "significant": sc.significant,
+        evidence = {"absorbed": ev.absorbed, "identifiable_share": ev.share,
+                    "p_value": sc.p_value, "p_adjusted": sc.p_adjusted, "significant": sc.significant,
                     "relevant": sc.relevant, "units": int(len(sc.gains)),
                     "units_improved": float(np.mean(sc.gains > 0)), "scheme": ev.scheme,
                     "fold_params": [eff.params(s, np.zeros(len(ev.coef)), None) for s in ev.fold_shapes
@@ -206,6 +210,10 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
                     "chosen": name in chosen, "step": chosen.index(name) + 1 if name in chosen else None,
                     "shrink_after_chosen": later[-1].shrink if later and name not in chosen else None,
                     "grid": eff.grid_reason}
+        if ev.absorbed:
+            evidence["note"] = (f"absorbed: at most {100 * (ev.share or 0):.2g} % of its torque lies outside what the "
+                                "elastic term (a cubic spring per window) takes up, so it cannot be told from a "
+                                "stiffness in these data and is not fitted")
         if ev.scheme == "interleaved":
             evidence["note"] = ("no parameter carries over to other data: scored by predicting every fifth "
                                 "motion period from the rest of the same recording, the nominal model alike")

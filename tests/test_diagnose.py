@@ -1,0 +1,225 @@
+"""limbstiff diagnose: the gap-location functions against exact answers, every candidate effect on
+a small seeded trial, clean data, the command line and bad input.
+
+The simulated trials here use seeds below 100 and effect sizes outside the benchmark's
+(benchmarks/diagnose.py: seeds from 5000, the default size × 0.75–1.5), 15–20 s long.
+"""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from limbstiff.cli import main
+from limbstiff.diagnose import select, where
+from limbstiff.diagnose.run import diagnose
+from limbstiff.io import write_trial
+from limbstiff.protocol import Protocol
+from limbstiff.simulate import effect_defaults, simulate
+
+
+# --- where: pure functions against exact answers ------------------------------------------------
+
+def test_whiteness_accepts_white_noise_at_its_level():
+    rng = np.random.default_rng(1)
+    # 200 white series: the 95 % Ljung-Box test rejects about 5 % of them
+    rejected = np.mean([not where.whiteness(rng.normal(size=600), max_lag=10, level=0.95)["white"]
+                        for _ in range(200)])
+    assert 0.01 <= rejected <= 0.10
+    out = where.whiteness(rng.normal(size=2000), max_lag=10, level=0.95)
+    assert out["bound"] == pytest.approx(1.96 / np.sqrt(2000), rel=1e-3)
+
+
+def test_whiteness_rejects_correlated_noise():
+    rng = np.random.default_rng(2)
+    e = rng.normal(size=3000)
+    x = np.empty_like(e)
+    x[0] = e[0]
+    for k in range(1, len(e)):
+        x[k] = 0.5 * x[k - 1] + e[k]            # AR(1): ρ(1) = 0.5
+    out = where.whiteness(x, max_lag=10)
+    assert not out["white"] and out["p_value"] < 1e-6
+    assert out["acf"][0] == pytest.approx(0.5, abs=0.05)
+    # tested against its own autocorrelation as the reference, the same series is "white"
+    ref = 0.5 ** np.arange(11)
+    assert where.whiteness(x, max_lag=10, reference=ref)["p_value"] > 0.01
+
+
+def test_cross_correlation_of_a_delayed_copy_peaks_at_the_delay():
+    rng = np.random.default_rng(3)
+    fs, delay = 1000.0, 0.037
+    x = rng.normal(size=20000)
+    r = np.roll(x, int(delay * fs)) + 0.5 * rng.normal(size=x.size)     # r(t) = x(t − d) + noise
+    out = where.cross_correlation(r, x, max_lag=100, sample_period=1 / fs)
+    assert out["peak_lag_s"] == pytest.approx(delay)
+    assert out["significant"] and out["peak"] == pytest.approx(1 / np.sqrt(1.25), abs=0.02)
+    independent = where.cross_correlation(rng.normal(size=20000), x, max_lag=100, sample_period=1 / fs)
+    assert np.mean(np.abs(independent["ccf"]) > independent["bound"]) < 0.15
+
+
+def test_regime_bins_and_gap_ratios():
+    v = np.concatenate([np.zeros(100), np.linspace(0.1, 1.0, 400)])
+    labels, names, ranges = where.speed_bins(v, still=0.05, k=4)
+    assert np.all(labels[:100] == 0) and names[0].startswith("near zero")
+    assert np.bincount(labels[100:], minlength=5)[1:].tolist() == [100, 100, 100, 100]
+    residual = np.where(labels == 2, 2.0, 1.0)               # bin 2 has twice the residual
+    bins = where.binned_gap(residual, 4.0, labels, names)
+    overall = np.mean(residual ** 2)
+    assert bins[2]["ratio"] == pytest.approx(4.0 / overall)
+    assert bins[0]["gap"] == pytest.approx(1.0 / 4.0)
+    lo, hi = bins[2]["interval"]
+    assert lo < bins[2]["ratio"] < hi
+
+
+def test_reversal_mask_and_change_points():
+    t = np.arange(1000) / 100.0
+    v = np.cos(np.pi * t)                                 # reversals at t = 0.5 + k
+    u = (t - 0.5) % 1.0
+    distance = np.minimum(u, 1.0 - u)                     # to the nearest reversal, s
+    mask = where.reversal_mask(v, half_width=5)
+    assert np.all(mask[distance < 0.03]) and not np.any(mask[distance > 0.08])
+    rng = np.random.default_rng(4)
+    series = np.concatenate([np.zeros(30), 3 * np.ones(20)]) + 0.3 * rng.normal(size=50)
+    assert where.change_points(series) == [30]
+    assert where.change_points(0.3 * rng.normal(size=50)) == []
+
+
+def test_coherence_of_a_linear_residual():
+    rng = np.random.default_rng(5)
+    fs = 200.0
+    angle = np.cumsum(rng.normal(size=8000)) * 1e-3
+    angle -= np.mean(angle)
+    linear = np.convolve(angle, np.ones(5) / 5, mode="same")      # a linear dynamics of the angle
+    out = where.spectrum(linear, angle, angle, fs, max_hz=20.0)
+    f = np.asarray(out["freq_hz"])
+    assert np.all(np.asarray(out["coherence"])[(f > 0.5) & (f < 15)] > out["bound"])
+    noise = where.spectrum(rng.normal(size=8000), angle, angle, fs, max_hz=20.0)
+    assert np.mean(np.asarray(noise["coherence"]) > noise["bound"]) < 0.15
+
+
+def test_sign_flip_test_and_holm():
+    rng = np.random.default_rng(6)
+    assert select.sign_flip_pvalue(np.ones(20), rng) < 1e-3
+    assert select.sign_flip_pvalue(np.ones(8), rng) == pytest.approx(1 / 256)       # exact enumeration
+    assert select.sign_flip_pvalue(rng.normal(size=40), rng) > 0.01
+    adj = select.holm({"a": 0.01, "b": 0.04, "c": 0.03})
+    assert adj == {"a": 0.03, "c": 0.06, "b": 0.06}
+
+
+# --- every candidate on a small seeded trial --------------------------------------------------------
+
+def _trial(joint, effect, seed, factor=1.6, duration=15.0, **extra):
+    params = None
+    if effect is not None:
+        params = dict(effect_defaults(effect, joint, seed=seed, params={"duration": duration}))
+        for key in {"coulomb_friction": ("friction_torque",), "quadratic_damping": ("coefficient",),
+                    "hysteresis": ("amplitude",), "backlash": ("width",), "time_delay": ("delay",),
+                    "reflex": ("gain",), "gravity": ("mgl",), "sensor_drift": ("slope", "random_walk"),
+                    "inertia_error": ("fraction",), "damping_error": ("fraction",)}[effect]:
+            params[key] *= factor
+        params.update(extra)
+    return simulate(joint, seed=seed, params={"duration": duration}, effect=effect, effect_params=params)
+
+
+def _diagnose(trial):
+    proto = Protocol(inertia=float(trial.metadata["nominal_inertia"]), damping=float(trial.metadata["nominal_damping"]))
+    return diagnose([trial], proto, seed=1)
+
+
+# Why the bounds: at 1.6× the default size each effect's torque is several times the sensor noise, so
+# most of the held-out gap is the effect's; 0.5 is the issue's target. Backlash on the ankle's
+# noise-free encoder is reconstructed from the recorded angle's dwell times, also above 0.5.
+CASES = [
+    ("ankle", "coulomb_friction", 11, {}),
+    ("ankle", "quadratic_damping", 12, {}),
+    ("elbow", "hysteresis", 13, {}),
+    ("ankle", "backlash", 14, {}),
+    ("ankle", "time_delay", 15, {}),
+    ("ankle", "reflex", 16, {"direction": -1.0, "delay": 0.065}),
+    ("ankle", "inertia_error", 18, {}),
+    ("ankle", "damping_error", 19, {}),
+]
+
+
+@pytest.mark.parametrize("joint,effect,seed,extra", CASES, ids=[f"{c[0]}-{c[1]}" for c in CASES])
+def test_the_right_effect_is_found(joint, effect, seed, extra):
+    trial = _trial(joint, effect, seed, **extra)
+    d = _diagnose(trial)
+    first = d.diagnosis[0] if d.diagnosis else None
+    ambiguous = {a["effects"][1] for a in d.ambiguities if a["effects"][0] == first}
+    assert first == effect or effect in ambiguous, (d.diagnosis, d.ambiguities)
+    c = d.candidate(effect)
+    assert c.shrink_heldout > 0.5
+    lo, hi = c.shrink_interval
+    assert lo <= c.shrink_heldout <= hi
+    assert c.evidence["significant"] and c.evidence["relevant"]
+    if effect == "reflex":
+        assert c.params["direction"] == extra.get("direction", 1.0)
+        assert c.params["delay"] == pytest.approx(extra["delay"], abs=0.006)
+    if effect == "time_delay":
+        assert c.params["delay"] == pytest.approx(float(trial.metadata["effect.delay"]), abs=0.0015)
+
+
+def test_sensor_drift_is_found_when_faster_than_the_windows():
+    # a drift 5x the default: its part faster than the 4-period elastic windows is what shows
+    trial = _trial("ankle", "sensor_drift", 21, factor=5.0, duration=16.0)
+    d = _diagnose(trial)
+    assert d.diagnosis[:1] == ("sensor_drift",)
+    c = d.candidate("sensor_drift")
+    assert c.evidence["scheme"] == "interleaved" and c.shrink_heldout > 0.3
+
+
+def test_gravity_is_absorbed_by_the_stiffness_and_said_so():
+    trial = _trial("ankle", "gravity", 22)
+    d = _diagnose(trial)
+    assert "gravity" not in d.diagnosis
+    c = d.candidate("gravity")
+    assert c.evidence["absorbed"] and c.shrink_heldout == 0.0
+    assert any(n.startswith("gravity") and "operating angle" in n for n in d.notes)
+    # the stiffness the tool reports includes −mgl (20 % × 1.6 of the stiffness here): the bias the
+    # effect causes is real, and the diagnosis cannot see it
+    assert d.trials[0]["stiffness_median"] < 0.8 * np.median(trial.stiffness_true)
+
+
+@pytest.mark.parametrize("joint,seed", [("elbow", 31), ("ankle", 32)])
+def test_clean_trials_get_an_empty_diagnosis(joint, seed):
+    d = _diagnose(_trial(joint, None, seed))
+    assert d.diagnosis == ()
+    assert d.after["shrink_heldout"] == 0.0 and d.after["stiffness_bias"] is None
+    assert d.gap_heldout < 0.01
+
+
+# --- command line ------------------------------------------------------------------------------------
+
+def test_cli_writes_the_contract(tmp_path):
+    path = write_trial(_trial("ankle", "reflex", 41, duration=15.0), tmp_path / "t.csv")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["diagnose", str(path), "--out", str(out), "--inertia", "0.015",
+                                    "--damping", "1.0", "--seed", "3"])
+    assert res.exit_code == 0, res.output
+    data = json.loads((out / "diagnosis.json").read_text())
+    assert {"gap", "where", "candidates", "diagnosis"} <= set(data)
+    assert {"metric", "train", "heldout"} <= set(data["gap"])
+    assert data["diagnosis"][0] == "reflex" and data["seed"] == 3
+    names = {c["effect"] for c in data["candidates"]}
+    assert {"coulomb_friction", "quadratic_damping", "hysteresis", "backlash", "time_delay", "reflex", "gravity",
+            "sensor_drift", "inertia_error", "damping_error"} <= names
+    for c in data["candidates"]:
+        assert {"effect", "params", "gap_train", "gap_heldout", "shrink_heldout", "shrink_heldout_interval",
+                "evidence", "stiffness_bias"} <= set(c)
+    assert {"time", "frequency", "regime", "whiteness", "cross_correlation"} <= set(data["where"]["t"])
+    assert {"speed", "reversal", "angle", "torque", "stiffness"} <= set(data["where"]["t"]["regime"])
+    assert (out / "diagnosis.pdf").read_bytes()[:4] == b"%PDF"
+
+
+def test_cli_bad_input_is_one_line_and_exit_status(tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,angle_rad,torque_Nm\n0,0,0\n0.001,nan,1\n")
+    res = CliRunner().invoke(main, ["diagnose", str(bad), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 1
+    lines = [ln for ln in res.output.splitlines() if ln.startswith("limbstiff: error")]
+    assert lines and "bad.csv" in lines[0] and "Traceback" not in res.output
+    assert not (tmp_path / "o" / "diagnosis.json").exists()
+    res = CliRunner().invoke(main, ["diagnose", str(tmp_path / "missing.csv")])
+    assert res.exit_code == 2 and "missing.csv" in res.output and "Traceback" not in res.output
