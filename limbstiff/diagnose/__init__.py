@@ -8,9 +8,16 @@ candidate library), ``crossval`` (fitting on training folds, scoring held out), 
 (greedy selection with a sign-flip test, intervals, ambiguities), ``result`` (``Diagnosis``,
 ``Candidate``) and ``run`` (:func:`diagnose`, :func:`diagnose_files`). Importing this package is
 light; the functions load their modules when called.
+
+``limbstiff.diagnose`` is both this package and, in the lazy top-level API, the function
+:func:`limbstiff.diagnose.run.diagnose`; once the package is imported it shadows the function,
+so the package itself is callable and does the same.
 """
 
 from __future__ import annotations
+
+import sys
+import types
 
 
 def diagnose(*args, **kwargs):
@@ -24,5 +31,12 @@ def diagnose_files(*args, **kwargs):
     from .run import diagnose_files as _diagnose_files
     return _diagnose_files(*args, **kwargs)
 
+
+class _CallablePackage(types.ModuleType):
+    def __call__(self, *args, **kwargs):
+        return diagnose(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallablePackage
 
 __all__ = ["diagnose", "diagnose_files"]

@@ -279,7 +279,8 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
                              weights=[np.sum(problem.deviation[problem.trial == i] ** 2) for i in range(len(trials))]))
 
     steps = [{"step": i + 1, "added": chosen[i] if i < len(chosen) else None,
-              "candidates": {n: {"shrink_heldout": s.shrink, "p_value": s.p_value, "p_adjusted": s.p_adjusted,
+              "candidates": {n: {"shrink_heldout": s.shrink, "share_of_nominal_gap": s.share_of_nominal,
+                                 "p_value": s.p_value, "p_adjusted": s.p_adjusted,
                                  "significant": s.significant, "relevant": s.relevant}
                              for n, s in step.items()}} for i, step in enumerate(sel.steps)]
     notes = _notes(channels, problem, chosen)
@@ -292,8 +293,8 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
                 "window_periods": nominal.WINDOW_PERIODS, "units_per_window": nominal.UNITS_PER_WINDOW,
                 "nuisance": list(nominal.NUISANCE), "test": "one-sided sign-flip test of the summed held-out gains "
                 "over units, Holm-corrected over the candidates of each step",
-                "relevance_reason": "an effect must remove at least this share of the held-out gap (see "
-                                    "limbstiff.diagnose.select.RELEVANCE)"}
+                "relevance_reason": "an effect must remove at least this share of the nominal model's held-out "
+                                    "gap, at the step it is added (see limbstiff.diagnose.select.RELEVANCE)"}
     warnings = [w for r in results for w in r.warnings]
     return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC, gap_train=nominal_train / den,
                      gap_heldout=nominal_held / den, noise_floor=floor, heldout=heldout, where=where_out,

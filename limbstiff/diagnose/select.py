@@ -11,7 +11,7 @@ shrinkage among those that are both
   elsewhere) minus a non-negative one (the fitted torque squared), so flipping signs at random
   can only make the observed sum look larger; Holm's correction over the candidates of a step
   keeps the family-wise error at :data:`ALPHA`; and
-* **relevant** — it removes at least :data:`RELEVANCE` of the held-out gap;
+* **relevant** — it removes at least :data:`RELEVANCE` of the nominal model's held-out gap;
 
 is added, the others are refitted on top of it, and the search stops when none qualifies. A
 clean recording therefore gets an empty diagnosis. Pure numpy: no I/O.
@@ -29,7 +29,8 @@ from .effects import Effect
 
 #: Family-wise error rate of a selection step (Holm over the candidates).
 ALPHA = 0.05
-#: Smallest share of the held-out gap an effect must remove to be named. A term that removes
+#: Smallest share of the nominal model's held-out gap an effect must remove to be named (at
+#: any step of the selection: what it adds to the effects chosen before it). A term that removes
 #: less than 5 % of the residual power is under a fifth (√0.05) of the residual's RMS — the
 #: level of the structure the nominal model's own approximations leave on clean simulated
 #: trials (filter edges, encoder quantisation, the window-wise linear spring: ≤ 1 % measured) —
@@ -126,13 +127,19 @@ def shrink_interval(reference: np.ndarray, candidate: np.ndarray, rng: np.random
 
 @dataclass
 class Scored:
-    """One candidate at one selection step."""
+    """One candidate at one selection step.
+
+    ``shrink`` is the share of the current model's held-out gap it removes; ``share_of_nominal``
+    the same gain as a share of the nominal model's held-out gap, which decides relevance (an
+    effect is named for what it explains of the sim-to-real gap, not of what is left of it).
+    """
 
     evaluation: crossval.Evaluation
     reference: np.ndarray          # the current model's held-out RSS per unit (same scheme)
     gains: np.ndarray
     shrink: float
     p_value: float
+    share_of_nominal: float = 0.0
     p_adjusted: float = 1.0
 
     @property
@@ -141,7 +148,7 @@ class Scored:
 
     @property
     def relevant(self) -> bool:
-        return self.shrink >= RELEVANCE
+        return self.share_of_nominal >= RELEVANCE
 
 
 @dataclass
@@ -171,7 +178,7 @@ class Selection:
     ambiguities: list = field(default_factory=list)
 
 
-def _score(problem, base, base_eval, effect: Effect, rng, bases) -> Scored:
+def _score(problem, base, base_eval, effect: Effect, rng, bases, nominal_total: float) -> Scored:
     shapes = effect.grid(problem_scales(problem))
     if effect.local:
         ev = crossval.evaluate_local(problem, base, effect, shapes=shapes, bases=bases)
@@ -182,7 +189,8 @@ def _score(problem, base, base_eval, effect: Effect, rng, bases) -> Scored:
     gains = ref - ev.unit_rss
     total = float(ref.sum())
     shrink = float(gains.sum() / total) if total > 0 else 0.0
-    return Scored(ev, ref, gains, shrink, sign_flip_pvalue(gains, rng))
+    share = float(gains.sum() / nominal_total) if nominal_total > 0 else 0.0
+    return Scored(ev, ref, gains, shrink, sign_flip_pvalue(gains, rng), share)
 
 
 def problem_scales(problem):
@@ -214,7 +222,8 @@ def select(problem: crossval.Problem, effects: dict, *, rng: np.random.Generator
     steps, first = [], None
     while remaining:
         bases = crossval._base(problem, base)
-        scored = {name: _score(problem, base, base_eval, eff, rng, bases) for name, eff in remaining.items()}
+        total = float(nominal_eval.unit_rss.sum())
+        scored = {name: _score(problem, base, base_eval, eff, rng, bases, total) for name, eff in remaining.items()}
         for name, p in holm({n: s.p_value for n, s in scored.items()}).items():
             scored[name].p_adjusted = p
         steps.append(scored)
