@@ -93,6 +93,8 @@ def _analyse_and_write(job: batch.BatchJob) -> dict:
         if done is not None:
             return dict(done, resumed=True)
     _clear_or_refuse(job, SUMMARY_JSON)
+    if not opts["pdf"] and (job.out / REPORT_PDF).exists():
+        (job.out / REPORT_PDF).unlink()          # a report of an earlier run would not match
     protocol: Protocol = opts["protocol"]
     trial = read_trial(job.source, protocol, name=job.name)
     reference = None
