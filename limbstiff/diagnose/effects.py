@@ -313,6 +313,9 @@ def _damping(ch, sh):
 
 
 REFLEX_DELAYS_S = tuple(np.round(np.arange(0.020, 0.0801, 0.005), 3))
+#: Activation corners of the reflex torque, Hz: None, then 1/(2π·T_c) for contraction times T_c of
+#: 30, 60, 90 and 120 ms.
+ACTIVATION_HZ = (None,) + tuple(float(np.round(1.0 / (2 * np.pi * tc), 3)) for tc in (0.03, 0.06, 0.09, 0.12))
 TIME_DELAYS_S = tuple(np.round(np.arange(-0.050, 0.0501, 0.001), 3))
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in (
@@ -347,9 +350,11 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "direction·g·[direction·ẏ(t − δ)]₊ resisting stretch in one direction, optionally through "
            "muscle activation dynamics (critically damped second-order low-pass).", "dynamics", ("gain",),
            lambda s: [{"delay": float(d), "direction": sgn, "activation_hz": fa}
-                      for d in REFLEX_DELAYS_S for sgn in (1.0, -1.0) for fa in (None, 8.0, 4.0, 2.0)],
+                      for d in REFLEX_DELAYS_S for sgn in (1.0, -1.0) for fa in ACTIVATION_HZ],
            "loop delays 20–80 ms (spinal stretch reflexes of human limbs) in 5 ms steps; both stretch "
-           "directions; activation corners none, 8, 4, 2 Hz (twitch contraction times of 20–80 ms)",
+           "directions; activation dynamics none (torque follows the rectified velocity at once) or a "
+           "critically damped low-pass whose impulse response peaks at the twitch contraction time of "
+           "human muscles, 30, 60, 90 or 120 ms (fast muscles to soleus): corners 1/(2π·T_c)",
            _reflex),
     Effect("gravity", "Gravity on an unbalanced segment −mgl·sin(y + θ₀) (θ₀: angle from the "
            "upright at y = 0).", "dynamics", ("mgl",),

@@ -296,6 +296,10 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
                 "relevance_reason": "an effect must remove at least this share of the nominal model's held-out "
                                     "gap, at the step it is added (see limbstiff.diagnose.select.RELEVANCE)"}
     warnings = [w for r in results for w in r.warnings]
+    notes.insert(0, "gap: the nominal model fits nothing of its own but the elastic terms, which are refitted on "
+                    "whatever is scored, so its held-out gap equals its in-sample gap"
+                 + ("; its m and b were identified from these same data" if any(c.mechanics == "identified"
+                                                                              for c in channels) else ""))
     return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC, gap_train=nominal_train / den,
                      gap_heldout=nominal_held / den, noise_floor=floor, heldout=heldout, where=where_out,
                      candidates=tuple(candidates), diagnosis=tuple(chosen), steps=tuple(steps),
