@@ -177,7 +177,6 @@ def report(rows, wall, jobs, real_out) -> str:
     clean = [r for r in rows if r["effect"] == "none"]
     labels = list(EFFECTS) + ["none"]
     counts = Counter((r["effect"], r["first"]) for r in rows)
-    n_seeds = len({r["seed"] for r in effect_rows}) // max(1, len(EFFECTS) * len(JOINTS)) or 1
     lines += [f"## Simulated trials ({len(rows)}: {len(JOINTS)} joints × {len(EFFECTS)} effects × "
               f"{len(effect_rows) // (len(JOINTS) * len(EFFECTS))} seeds, and {len(clean)} clean; "
               f"{DURATION:.0f} s each; {wall / 60:.1f} min on {jobs} processes)", "",

@@ -200,12 +200,6 @@ def _design(problem, bases, effect: Effect | None, shape, share: list | None = N
     return np.concatenate(zs), np.vstack(Xs)
 
 
-def _lstsq(X, z):
-    if X.shape[1] == 0:
-        return np.zeros(0)
-    return np.linalg.lstsq(X, z, rcond=None)[0]
-
-
 def _fold_fits(z: np.ndarray, X: np.ndarray, weights: np.ndarray):
     """Least squares on several row subsets at once, by the normal equations.
 

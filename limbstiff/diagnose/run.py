@@ -141,10 +141,6 @@ def _where(ch: Channels, lay, residual: np.ndarray, decimation: int) -> dict:
     return {"time": time, "frequency": freq, "regime": regime, "whiteness": white, "cross_correlation": xcorr}
 
 
-def _thin(d: dict, keys=("lags_s", "ccf"), step: int = 1) -> dict:
-    return {k: (v[::step] if k in keys and isinstance(v, list) else v) for k, v in d.items()}
-
-
 def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed: int = 0,
              inertia: float | None = None, damping: float | None = None, blocks: int = BLOCKS,
              effects: dict | None = None, results: Sequence | None = None) -> Diagnosis:
