@@ -13,6 +13,7 @@ numpy/scipy: no I/O.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -136,8 +137,15 @@ def zero_phase_lowpass(x: np.ndarray, fs: float, cutoff_hz: float | None, *, ord
     x = np.asarray(x, dtype=float)
     if cutoff_hz is None:
         return x.copy()
-    sos = signal.butter(order, cutoff_hz, fs=fs, output="sos")
+    sos = _butterworth(order, float(cutoff_hz), float(fs))
     return signal.sosfiltfilt(sos, x, padtype="odd", padlen=min(len(x) - 1, int(3 * fs / cutoff_hz)))
+
+
+@functools.lru_cache(maxsize=64)
+def _butterworth(order: int, cutoff_hz: float, fs: float) -> np.ndarray:
+    """Second-order sections of a Butterworth low-pass, designed once per (order, corner, rate)
+    (the diagnosis filters hundreds of signals with the same one)."""
+    return signal.butter(order, cutoff_hz, fs=fs, output="sos")
 
 
 # Central-difference stencils of accuracy order 8 (9 points): the error on a sinusoid of

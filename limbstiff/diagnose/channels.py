@@ -11,20 +11,13 @@ recorded torque on equal terms. Pure numpy/scipy: no I/O.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import lru_cache
 
 import numpy as np
-from scipy import signal as sps
 
 from .. import signals
 from ..analysis import derivatives
 from ..protocol import Protocol
 from ..trial import Trial
-
-
-@lru_cache(maxsize=32)
-def _butter(cutoff_hz: float, fs: float):
-    return sps.butter(4, cutoff_hz, fs=fs, output="sos")
 
 
 @dataclass(frozen=True)
@@ -116,11 +109,7 @@ class Channels:
             return signals.paper_derivatives(x, self.fs, 0,
                                              prefilter_time_constant=self.prefilter_time_constant,
                                              dirty_derivative_time_constant=self.dirty_derivative_time_constant)[0]
-        if self.cutoff_hz is None:
-            return x.copy()
-        # signals.zero_phase_lowpass with its filter design cached (called hundreds of times)
-        return sps.sosfiltfilt(_butter(self.cutoff_hz, self.fs), x, padtype="odd",
-                               padlen=min(len(x) - 1, int(3 * self.fs / self.cutoff_hz)))
+        return signals.zero_phase_lowpass(x, self.fs, self.cutoff_hz)
 
     def linear_part(self, x: np.ndarray) -> np.ndarray:
         """Least-squares fit of ``x`` (n,) on 1, y, ẏ, ÿ."""

@@ -120,18 +120,23 @@ def _decode(where: str, raw: bytes) -> str:
     return text
 
 
+def _above_header(line: str, metadata: dict[str, str]) -> bool:
+    """True for a blank or ``#`` line (above the header); a ``# key: value`` one is recorded."""
+    stripped = line.strip()
+    if stripped and not stripped.startswith("#"):
+        return False
+    key, colon, value = stripped[1:].partition(":")
+    if colon and key.strip():
+        metadata[key.strip()] = value.strip()
+    return True
+
+
 def _split(where: str, text: str):
     """Metadata, the header line, and the non-blank lines below it as (line number, line)."""
     all_lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     metadata: dict[str, str] = {}
     for k, line in enumerate(all_lines):
-        stripped = line.strip()
-        if not stripped:
-            continue
-        if stripped.startswith("#"):
-            key, colon, value = stripped[1:].partition(":")
-            if colon and key.strip():
-                metadata[key.strip()] = value.strip()
+        if _above_header(line, metadata):
             continue
         break
     else:
@@ -165,13 +170,7 @@ def _body(text: str, raw: bytes) -> _Body | None:
         number += 1
         char += len(line)
         pos += len(line.encode("utf-8"))
-        stripped = line.strip()
-        if not stripped:
-            continue
-        if stripped.startswith("#"):
-            key, colon, value = stripped[1:].partition(":")
-            if colon and key.strip():
-                metadata[key.strip()] = value.strip()
+        if _above_header(line, metadata):
             continue
         header = line.rstrip("\r\n")
         break
