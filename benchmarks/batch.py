@@ -24,7 +24,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _results import machine, update_section  # noqa: E402
 
-from limbstiff.io import write_trial  # noqa: E402
+from limbstiff.files import write_trial
 from limbstiff.simulate import simulate  # noqa: E402
 
 SCENARIOS = ("elbow", "wrist", "ankle")

@@ -34,7 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _results import machine  # noqa: E402
 
 from limbstiff.analysis import analyze  # noqa: E402
-from limbstiff.diagnose.select import RELEVANCE  # noqa: E402
+from limbstiff.gap.selection import RELEVANCE
 from limbstiff.protocol import Protocol  # noqa: E402
 from limbstiff.simulate import effect_defaults, simulate  # noqa: E402
 
@@ -76,7 +76,7 @@ def one(job):
 
 
 def _one(job):
-    from limbstiff.diagnose.run import diagnose
+    from limbstiff.gap.run import diagnose
 
     joint, effect, index = job
     seed, params, factor = draw(joint, effect, index)
@@ -112,15 +112,15 @@ def _one(job):
 
 def _nominal_gap(trial, result, proto) -> float:
     """Held-out gap of the nominal model on a trial (as diagnose computes it)."""
-    from limbstiff.diagnose import crossval
-    from limbstiff.diagnose.channels import channels_from
-    problem = crossval.build_problem([channels_from(trial, result, proto)])
+    from limbstiff.gap import crossval
+    from limbstiff.gap.channels import channels_from
+    problem = crossval.build_problem([channels_from(trial, result)])
     return float(crossval.evaluate(problem, []).unit_rss.sum() / np.sum(problem.deviation ** 2))
 
 
 def real(jobs: int):
-    from limbstiff.diagnose.run import diagnose
-    from limbstiff.io import read_trial
+    from limbstiff.gap.run import diagnose
+    from limbstiff.files import read_trial
     from limbstiff.protocol import load_protocol
 
     if not REAL.exists():
@@ -141,8 +141,8 @@ def real(jobs: int):
 
 
 def _real_one(name):
-    from limbstiff.diagnose.run import diagnose
-    from limbstiff.io import read_trial
+    from limbstiff.gap.run import diagnose
+    from limbstiff.files import read_trial
     from limbstiff.protocol import load_protocol
     proto = load_protocol(HERE.parent / "protocols" / "reklab-ankle.toml")
     trial = read_trial(REAL / f"{name}.csv", proto)
@@ -345,6 +345,6 @@ if __name__ == "__main__":
     parser.add_argument("--no-real", action="store_true")
     args = parser.parse_args()
     text = main(args.seeds, args.clean_seeds, args.jobs, not args.no_real)
-    from limbstiff.io.atomic import atomic_write_text
+    from limbstiff.files.atomic import atomic_write_text
     atomic_write_text(HERE / "diagnose.md", text + "\n")
     print(text)

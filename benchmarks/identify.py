@@ -27,7 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _results import machine, update_section  # noqa: E402
 
-from limbstiff.analysis import analyze, identify_trial  # noqa: E402
+from limbstiff.analysis import analyze, identification_summary, identify_trial  # noqa: E402
 from limbstiff.protocol import Protocol  # noqa: E402
 from limbstiff.simulate import simulate  # noqa: E402
 
@@ -60,7 +60,7 @@ def recovery_one(i: int):
     joint, params, seed = draw_trial(i)
     trial = simulate(joint, seed=seed, params=params)
     t0 = time.perf_counter()
-    s = identify_trial(trial, Protocol(), seed=seed)["summary"]
+    s = identification_summary(trial, identify_trial(trial, Protocol(), seed=seed), ci_level=0.9, seed=seed)
     secs = time.perf_counter() - t0
     row = {"joint": joint, "seconds": secs, "converged": s["mcmc"]["converged"]}
     for name in ("inertia", "damping"):
@@ -86,7 +86,7 @@ def sensitivity(seeds=(31, 32, 33)):
 
 
 def real_data():
-    from limbstiff.io import read_trial
+    from limbstiff.files import read_trial
     from limbstiff.protocol import load_protocol
     if not REAL.exists():
         return ["(real data not present)"]
@@ -94,7 +94,8 @@ def real_data():
     rows = ["| trial | inertia [90 % CI], kg·m² | in 0.010–0.022 | damping [90 % CI], N·m·s/rad | SOURCE.md B | within ×2 |",
             "|---|---|---|---|---|---|"]
     for name, (_, b_ref, _) in SOURCE_MD.items():
-        s = identify_trial(read_trial(REAL / f"{name}.csv", proto), proto, seed=0)["summary"]
+        trial = read_trial(REAL / f"{name}.csv", proto)
+        s = identification_summary(trial, identify_trial(trial, proto, seed=0), ci_level=proto.ci_level, seed=0)
         i, b = s["inertia"], s["damping"]
         rows.append(f"| {name} | {i['median']:.4f} [{i['lo']:.4f}, {i['hi']:.4f}] | "
                     f"{'yes' if 0.010 <= i['median'] <= 0.022 else 'NO'} | {b['median']:.3f} [{b['lo']:.3f}, {b['hi']:.3f}] | "
@@ -103,15 +104,14 @@ def real_data():
 
 
 def speed():
-    from limbstiff import estimators
-    from limbstiff.analysis import derivatives
+    from limbstiff.estimate import estimators
+    from limbstiff.filtered import filter_trial
     trial = simulate("elbow", seed=41, params={"duration": 60.0})
     identify_trial(simulate("elbow", seed=1, params={"duration": 5.0}), Protocol())     # compile kernels
     t0 = time.perf_counter()
     identify_trial(trial, Protocol(), seed=41)
     t_ident = time.perf_counter() - t0
-    angle, torques, bw = derivatives(trial, Protocol())
-    sig = estimators.Signals(angle, torques["torque"], trial.sample_period, bw.cutoff_hz)
+    sig = filter_trial(trial, Protocol())
     kw = dict(smoothed=False, gain=500.0, velocity_threshold=0.0)
     estimators.observers(sig, inertia=0.06, damping=0.45, **kw)
     reps = 20

@@ -29,8 +29,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _results import machine, update_section  # noqa: E402
 
-from limbstiff import estimators, kernels, observer, scan, smoothing  # noqa: E402
-from limbstiff.analysis import analyze, derivatives  # noqa: E402
+from limbstiff.analysis import analyze  # noqa: E402
+from limbstiff.estimate import estimators, kernels, observer, scan  # noqa: E402
+from limbstiff.estimate import kalman as kalman_model  # noqa: E402
+from limbstiff.filtered import filter_trial  # noqa: E402
 from limbstiff.protocol import Protocol  # noqa: E402
 from limbstiff.simulate import simulate  # noqa: E402
 
@@ -48,46 +50,46 @@ def best(func, repeats: int = 7) -> float:
 
 
 def signals_of(trial):
-    angle, torques, bw = derivatives(trial, Protocol())
-    return estimators.Signals(angle, torques["torque"], trial.sample_period, bw.cutoff_hz)
+    return filter_trial(trial, Protocol())
 
 
 def passes() -> tuple[list[tuple[str, float]], float, dict]:
     """Seconds of one pass of each estimator over 10⁶ samples, and of one cumsum."""
     trial = simulate("ankle", seed=0, params={"duration": N / 1000.0 - 0.001})
     sig = signals_of(trial)
-    y, f = sig.angle, sig.torque
     m, b, ts = 0.015, 1.0, sig.sample_period
-    drive = f[1] - m * y[3] - b * y[2]
+    drive = observer.external_drive(sig.torque_rate, sig.acceleration, sig.jerk, inertia=m, damping=b)
     x = np.random.default_rng(0).standard_normal(N)
     t_cumsum = best(lambda: np.cumsum(x), 21)
     out = []
     for disc in ("exact", "euler"):
         gain = 0.5 if disc == "euler" else 300.0       # Euler needs α·|ẏ|·Ts < 2 to stay stable
         for direction, sl in (("forwards", slice(None)), ("backwards", slice(None, None, -1))):
-            vel, drv = np.ascontiguousarray(y[1][sl]), np.ascontiguousarray(drive[sl])
+            vel, drv = np.ascontiguousarray(sig.velocity[sl]), np.ascontiguousarray(drive[sl])
             out.append((f"observer, {disc}, {direction} (compiled, coefficients on the fly)",
                         best(lambda disc=disc, gain=gain, vel=vel, drv=drv: observer.observe(
                             vel, drv, observer_gain=gain, sample_period=ts, discretisation=disc))))
 
     def numpy_pass():
-        a, c = observer.recursion_coefficients(y[1], drive, observer_gain=300.0, sample_period=ts)
+        a, c = observer.recursion_coefficients(sig.velocity, drive, observer_gain=300.0, sample_period=ts)
         return scan.linear_recursion(a, c)
     out.append(("observer, exact, pure NumPy (coefficients + blocked scan; the reference path)", best(numpy_pass)))
-    a, c = observer.recursion_coefficients(y[1], drive, observer_gain=300.0, sample_period=ts)
+    a, c = observer.recursion_coefficients(sig.velocity, drive, observer_gain=300.0, sample_period=ts)
     out.append(("  the recursion alone, compiled", best(lambda: kernels.linear_recursion(a, c, 0.0))))
     out.append(("  the recursion alone, NumPy blocked scan", best(lambda: scan.linear_recursion(a, c))))
-    z = f[0] - m * y[2] - b * y[1]
-    d = np.diff(y[0], prepend=y[0][0])
-    noise = smoothing.NoiseLevels(1e-2, 1e-1, 1.0)
+    z = sig.elastic_torque(m, b)
+    d = np.diff(sig.angle, prepend=sig.angle[0])
+    noise = kalman_model.NoiseLevels(1e-2, 1e-1, 1.0)
     kw = dict(step=ts, initial_mean=np.array([z[0], 60.0]), initial_cov=np.array([1.0, 0.0, 1e4]))
 
-    def kalman():
-        return smoothing.rts_smoother(d, smoothing.kalman_filter(d, z, noise, **kw))
-    out.append(("Kalman filter + RTS smoother, every sample", best(kalman, 3)))
+    def kalman(loglik):
+        return kalman_model.kalman_smoother(d, z, noise, loglik=loglik, **kw)
+    out.append(("Kalman filter + RTS smoother, every sample, with the log-likelihood", best(lambda: kalman(True), 5)))
+    out.append(("Kalman filter + RTS smoother, every sample (the responses to ÿ and ẏ: no log-likelihood)",
+                best(lambda: kalman(False), 5)))
     out.append(("Kalman estimator as analyze runs it: steps at 2.5× the corner, σ̂ and its two "
                 "sensitivities, back to every sample",
-                best(lambda: estimators.kalman(sig, motion_frequency=1.0, inertia=m, damping=b,
+                best(lambda: estimators.kalman(sig, inertia=m, damping=b,
                                                noise=noise), 3)))
     return out, t_cumsum, {"sig": sig}
 
@@ -115,7 +117,7 @@ def full_analyze(trial, pdf: bool, folder: Path) -> float:
 
 MEMORY_SCRIPT = """
 import sys, time
-from limbstiff.io import read_trial
+from limbstiff.files import read_trial
 from limbstiff.analysis import analyze
 
 def peak_mb():
@@ -135,10 +137,10 @@ print(time.perf_counter() - t0, base, peak_mb(), trial.n_samples)
 
 def memory(duration: float, folder: Path) -> dict:
     """Peak resident memory of a fresh process reading and analysing one long trial, MB."""
-    from limbstiff.io import write_trial
+    from limbstiff.files import write_trial
     path = folder / "long.csv"
     write_trial(simulate("ankle", seed=5, params={"duration": duration}), path)
-    warm = "import limbstiff.analysis, limbstiff.io, numpy; import limbstiff.kernels"
+    warm = "import limbstiff.analysis, limbstiff.files, numpy; import limbstiff.estimate.kernels"
     subprocess.run([sys.executable, "-c", warm], check=True)
     out = subprocess.run([sys.executable, "-c", MEMORY_SCRIPT, str(path)], check=True, capture_output=True,
                          text=True).stdout.split()

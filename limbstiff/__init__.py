@@ -14,8 +14,8 @@ _API = {
     "Trial": "limbstiff.trial",
     "Protocol": "limbstiff.protocol",
     "load_protocol": "limbstiff.protocol",
-    "read_trial": "limbstiff.io",
-    "write_trial": "limbstiff.io",
+    "read_trial": "limbstiff.files",
+    "write_trial": "limbstiff.files",
     "LimbstiffError": "limbstiff.errors",
     "TrialError": "limbstiff.errors",
     "ProtocolError": "limbstiff.errors",
@@ -23,9 +23,9 @@ _API = {
     "analyze": "limbstiff.analysis",
     "StiffnessResult": "limbstiff.result",
     "write_report": "limbstiff.report",
-    "analyze_files": "limbstiff.pipeline",
-    "identify_files": "limbstiff.pipeline",
-    "diagnose": "limbstiff.diagnose.run",
+    "analyze_files": "limbstiff.batch.jobs",
+    "identify_files": "limbstiff.batch.jobs",
+    "diagnose": "limbstiff.gap.run",
 }
 
 __all__ = ["__version__", *_API]

@@ -1,4 +1,4 @@
-"""Stiffness analysis of one trial: signals → (inertia, damping) → observer → result.
+"""Stiffness analysis of one trial: filter → (inertia, damping) → estimator → result.
 
 :func:`analyze` is the library call behind ``limbstiff analyze``. It resolves the settings
 (protocol, then explicit arguments), derives what the protocol leaves open from the trial's
@@ -9,14 +9,17 @@ for the external-torque variant — inertia and damping), runs the estimator and
 
 from __future__ import annotations
 
-import numpy as np
+import dataclasses
 
+import numpy as np
 from scipy import stats
 
-from . import estimators, identify, observer, posterior, signals, smoothing
 from .errors import TrialError
+from .estimate import estimators, observer
+from .filtered import Filtered, filter_trial
+from .mechanics.identification import Identification, identify_mechanics
 from .protocol import Protocol
-from .result import Interval, StiffnessResult, software
+from .result import DerivedSettings, StiffnessResult, software
 from .trial import Trial
 
 #: Default memory of the observer, as a fraction of the range of motion: by (8) the estimate
@@ -26,52 +29,6 @@ MEMORY_FRACTION_OF_RANGE = 1 / 20
 VELOCITY_NOISE_MULTIPLE = 3.0
 #: Observability window, in periods of the typical motion frequency.
 OBSERVABLE_PERIODS = 2.0
-#: Identification windows, in periods of the typical motion frequency.
-IDENTIFY_PERIODS = 4.0
-
-
-def derivatives(trial: Trial, protocol: Protocol, order: int = 3):
-    """Filtered signals and their derivatives, the same chain for every channel.
-
-    Parameters
-    ----------
-    trial : Trial
-    protocol : Protocol
-    order : int
-        Highest derivative of the angle wanted (3 for the external variant).
-
-    Returns
-    -------
-    angle : ndarray, shape (order + 1, n)
-        y, ẏ, ÿ, y⃛ (rad, rad/s, rad/s², rad/s³).
-    torques : dict of str to ndarray, shape (2, n)
-        For ``torque`` and ``elastic_torque`` (those recorded): f and ḟ.
-    bandwidth : signals.Bandwidth
-    """
-    fs = trial.fs
-    channels = {"torque": trial.torque, "elastic_torque": trial.elastic_torque}
-    recorded = trial.torque if trial.torque is not None else trial.elastic_torque
-    bandwidth = signals.choose_bandwidth(trial.angle, fs, torque=recorded)
-    if protocol.derivatives == "paper":
-        kw = dict(prefilter_time_constant=protocol.prefilter_time_constant,
-                  dirty_derivative_time_constant=protocol.dirty_derivative_time_constant)
-        angle = signals.paper_derivatives(trial.angle, fs, order, **kw)
-        torques = {k: signals.paper_derivatives(v, fs, 1, **kw) for k, v in channels.items() if v is not None}
-        cutoff = None
-    else:
-        cutoff = protocol.bandwidth_hz if protocol.bandwidth_hz is not None else bandwidth.cutoff_hz
-        if cutoff is not None and cutoff >= signals.MAX_BANDWIDTH_FRACTION * fs:
-            cutoff = None
-
-        def chain(x, n):
-            return signals.central_derivatives(signals.zero_phase_lowpass(x, fs, cutoff), fs, n)
-
-        angle = chain(trial.angle, order)
-        torques = {k: chain(v, 1) for k, v in channels.items() if v is not None}
-    used = signals.Bandwidth(cutoff_hz=cutoff, signal_edge_hz=bandwidth.signal_edge_hz,
-                             noise_floor=bandwidth.noise_floor,
-                             quantisation_step=bandwidth.quantisation_step)
-    return angle, torques, used
 
 
 def range_of_motion(angle: np.ndarray) -> float:
@@ -84,106 +41,92 @@ def default_gain(angle: np.ndarray) -> float:
     return 1.0 / (MEMORY_FRACTION_OF_RANGE * range_of_motion(angle))
 
 
-def _variant(trial: Trial, protocol: Protocol) -> str:
-    where = trial.source or trial.name
-    variant = trial.variant if protocol.variant == "auto" else protocol.variant
-    if variant == "direct" and trial.elastic_torque is None:
-        raise TrialError(where, "the direct variant needs an elastic torque/force column")
-    if variant == "external" and trial.torque is None:
-        raise TrialError(where, "the external variant needs an external torque/force column")
-    return variant
+def _where(trial: Trial) -> str:
+    return trial.source or trial.name
 
 
-def _prepare(trial: Trial, protocol: Protocol):
-    """What both :func:`analyze` and :func:`identify_trial` start from.
-
-    Returns
-    -------
-    variant : str
-    angle, torques, bandwidth : see :func:`derivatives`
-    sig : estimators.Signals
-        The angle and the torque of the variant (external or elastic), filtered alike.
-    motion : float, Hz
-        Typical motion frequency.
-    """
-    variant = _variant(trial, protocol)
-    angle, torques, bandwidth = derivatives(trial, protocol)
-    torque = torques["torque"] if variant == "external" else torques["elastic_torque"]
-    sig = estimators.Signals(angle, torque, trial.sample_period, bandwidth.cutoff_hz)
-    return variant, angle, torques, bandwidth, sig, signals.motion_frequency(angle[0], trial.fs)
-
-
-def _mechanics(trial, protocol, sig, motion, ci_level, rng, seed):
-    """Inertia and damping: given, or identified (least squares, ML, then the emcee posterior).
-
-    Returns
-    -------
-    inertia, damping : Interval
-    covariance : ndarray, shape (2, 2)
-        Posterior covariance of (m, b) (from the draws); zero where a value is given.
-    details : dict
-    posterior : posterior.Posterior or None
-    """
-    where = trial.source or trial.name
-    m, b = protocol.inertia, protocol.damping
-    if m is not None and b is not None:
-        return Interval.fixed(m), Interval.fixed(b), np.zeros((2, 2)), {"method": "given"}, None
-    y, f = sig.angle, sig.torque[0]
-    guess = identify.least_squares(f, y[0], y[1], y[2], sample_period=trial.sample_period,
-                                   window=IDENTIFY_PERIODS / motion)
-    decimation = estimators.kalman_decimation(sig)
-    edge = signals.edge_samples(trial.fs, sig.cutoff_hz)
-    problem = identify.MechanicsProblem.build(y[0], y[1], y[2], f, sample_period=trial.sample_period,
-                                              decimation=decimation, motion_frequency=motion, guess=guess,
-                                              edge=edge)
-    fit = identify.kalman_mechanics(problem, guess=guess)
-    post = posterior.sample(problem, start=fit, inertia_prior=protocol.inertia_prior,
-                            damping_prior=protocol.damping_prior, rng=rng, seed=seed)
-    draws = post.mechanics.copy()
-    details = {"method": "kalman+emcee",
-               "least_squares": {"inertia": guess.inertia, "damping": guess.damping,
-                                 "window_s": guess.window, "condition": guess.condition},
-               "maximum_likelihood": {"inertia": fit.inertia, "damping": fit.damping,
-                                      "noise_levels": fit.noise.to_dict(), "loglik": fit.loglik},
-               "noise_levels": post.noise_levels().to_dict(), "decimation": decimation,
-               "mcmc": post.diagnostics.to_dict(), "warnings": list(post.warnings)}
-    out = []
-    for j, (name, given) in enumerate((("inertia", m), ("damping", b))):
-        if given is not None:
-            draws[:, j] = given
-            out.append(Interval.fixed(given))
-            continue
-        lo, med, hi = np.quantile(draws[:, j], [0.5 - ci_level / 2, 0.5, 0.5 + ci_level / 2])
-        if not med > 0:
-            raise TrialError(where, f"{name} could not be identified (its posterior median is "
-                                    f"{med:.3g}); give it with --{name} or in the protocol")
-        out.append(Interval(float(med), float(lo), float(hi)))
-    return out[0], out[1], np.cov(draws.T), details, post
-
-
-def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int = 0) -> dict:
+def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int = 0) -> Identification:
     """Identify inertia and damping of one trial only (``limbstiff identify``).
 
     Returns
     -------
-    dict
-        ``summary`` (JSON-ready: trial, intervals, noise levels, MCMC diagnostics) and
-        ``posterior`` (:class:`~limbstiff.posterior.Posterior`, None when both are given).
+    Identification
+        Its ``posterior`` is None when both are given.
+
+    Raises
+    ------
+    TrialError
+        For a direct-variant trial (no external torque), or when m or b is not identifiable.
     """
     protocol = protocol or Protocol()
-    variant, _, _, _, sig, motion = _prepare(trial, protocol)
-    if variant != "external":
-        raise TrialError(trial.source or trial.name, "inertia and damping are identified from the external "
-                                                     "torque; this trial has only the elastic torque (direct variant)")
-    m, b, cov, ident, post = _mechanics(trial, protocol, sig, motion, protocol.ci_level,
-                                        np.random.default_rng(seed), seed)
-    summary = {"trial": trial.name, "source": trial.source, "source_sha256": trial.source_sha256,
-               "ci_level": protocol.ci_level, "inertia": m.to_dict(), "damping": b.to_dict(),
-               "covariance": cov.tolist(), "units": {k: trial.units[k] for k in ("inertia", "damping")},
-               "identification": ident, "mcmc": ident.get("mcmc"), "seed": seed,
-               "warnings": list(trial.warnings) + list(ident.get("warnings", [])),
-               "software": software(), "metadata": dict(trial.metadata)}
-    return {"summary": summary, "posterior": post}
+    filtered = filter_trial(trial, protocol)
+    if filtered.variant != "external":
+        raise TrialError(_where(trial), "inertia and damping are identified from the external "
+                                        "torque; this trial has only the elastic torque (direct variant)")
+    return identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=_where(trial))
+
+
+def identification_summary(trial: Trial, ident: Identification, *, ci_level: float, seed: int) -> dict:
+    """The content of ``posterior.json`` (JSON-ready)."""
+    post = ident.posterior
+    return {"trial": trial.name, "source": trial.source, "source_sha256": trial.source_sha256,
+            "ci_level": ci_level, "inertia": ident.inertia.to_dict(), "damping": ident.damping.to_dict(),
+            "covariance": ident.covariance.tolist(), "units": {k: trial.units[k] for k in ("inertia", "damping")},
+            "identification": ident.to_dict(), "mcmc": None if post is None else post.diagnostics.to_dict(),
+            "seed": seed, "warnings": list(trial.warnings) + list(ident.warnings),
+            "software": software(), "metadata": dict(trial.metadata)}
+
+
+def derive_settings(filtered: Filtered, protocol: Protocol, *, where: str = "trial") -> DerivedSettings:
+    """Observer gain, velocity threshold and observability window from the data (or the protocol)."""
+    range_ = range_of_motion(filtered.angle)
+    if not range_ > 0:
+        raise TrialError(where, "no motion: the angle does not change")
+    return DerivedSettings(observer_gain=protocol.observer_gain or default_gain(filtered.angle),
+                           discretisation=protocol.discretisation, range_of_motion=range_,
+                           velocity_threshold=VELOCITY_NOISE_MULTIPLE * filtered.velocity_noise,
+                           observable_window_s=OBSERVABLE_PERIODS / filtered.motion_hz)
+
+
+def _mechanics(filtered: Filtered, protocol: Protocol, *, seed: int, where: str) -> Identification | None:
+    """m and b for the external variant (with the check of the protocol's expected range)."""
+    if filtered.variant != "external":
+        return None
+    ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=where)
+    return dataclasses.replace(ident, expected_inertia=protocol.inertia_range)
+
+
+def _estimate(filtered: Filtered, protocol: Protocol, derived: DerivedSettings,
+              ident: Identification | None) -> estimators.Estimate:
+    mech = {} if ident is None else {"inertia": ident.inertia.median, "damping": ident.damping.median}
+    if protocol.estimator == "kalman":
+        # the noise levels fitted with m and b (one likelihood for both), when they were fitted
+        return estimators.kalman(filtered, noise=None if ident is None else ident.noise_levels, **mech)
+    return estimators.observers(filtered, smoothed=protocol.estimator == "observer-smoothed",
+                                gain=derived.observer_gain, velocity_threshold=derived.velocity_threshold,
+                                discretisation=protocol.discretisation, **mech)
+
+
+def _observable(filtered: Filtered, derived: DerivedSettings) -> np.ndarray:
+    observable = observer.informed(filtered.velocity, observer_gain=derived.observer_gain,
+                                   sample_period=filtered.sample_period, window=derived.observable_window_s,
+                                   velocity_threshold=derived.velocity_threshold)
+    edge = filtered.edge
+    observable[:edge] = observable[len(observable) - edge:] = False     # derivatives unreliable there
+    return observable
+
+
+def _warnings(trial: Trial, ident: Identification | None, observable: np.ndarray) -> tuple[str, ...]:
+    warnings = list(trial.warnings)
+    if ident is not None:
+        warnings += list(ident.warnings)
+        if ident.inertia_in_expected_range is False:
+            lo, hi = ident.expected_inertia
+            warnings.append(f"identified inertia {ident.inertia.median:.4g} is outside the range expected for "
+                            f"this set-up ({lo:g}–{hi:g})")
+    if observable.mean() < 0.5:
+        warnings.append(f"only {100 * observable.mean():.0f} % of the trial is informed by motion")
+    return tuple(warnings)
 
 
 def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | None = None,
@@ -222,72 +165,21 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     """
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping,
                                                  observer_gain=observer_gain, estimator=estimator)
-    where = trial.source or trial.name
-    warnings = list(trial.warnings)
-    variant, angle, torques, bandwidth, sig, motion = _prepare(trial, protocol)
-    ts, fs = trial.sample_period, trial.fs
-    range_ = range_of_motion(angle[0])
-    if not range_ > 0:
-        raise TrialError(where, "no motion: the angle does not change")
-    gain = protocol.observer_gain or default_gain(angle[0])
-    threshold = VELOCITY_NOISE_MULTIPLE * signals.velocity_noise_level(trial.angle, fs, bandwidth.cutoff_hz)
-
-    m = b = ident = post = None
-    cov = None
-    mech = {}
-    if variant == "external":
-        m, b, cov, ident, post = _mechanics(trial, protocol, sig, motion, protocol.ci_level,
-                                            np.random.default_rng(seed), seed)
-        mech = {"inertia": m.median, "damping": b.median}
-        if post is not None:
-            warnings += list(post.warnings)
-        if protocol.inertia_range is not None:
-            lo, hi = protocol.inertia_range
-            inside = lo <= m.median <= hi
-            ident["inertia_in_expected_range"] = {"range": [lo, hi], "inside": inside}
-            if not inside:
-                warnings.append(f"identified inertia {m.median:.4g} is outside the range expected for "
-                                f"this set-up ({lo:g}–{hi:g})")
-    if protocol.estimator == "kalman":
-        # the noise levels fitted with m and b (one likelihood for both), when they were fitted
-        noise = smoothing.NoiseLevels(**ident["noise_levels"]) if ident and "noise_levels" in ident else None
-        estimate = estimators.kalman(sig, motion_frequency=motion, noise=noise, **mech)
-    else:
-        estimate = estimators.observers(sig, smoothed=protocol.estimator == "observer-smoothed", gain=gain,
-                                        velocity_threshold=threshold, discretisation=protocol.discretisation,
-                                        **mech)
-    stiffness = estimate.stiffness
-    observable = observer.informed(angle[1], observer_gain=gain, sample_period=ts,
-                                   window=OBSERVABLE_PERIODS / motion, velocity_threshold=threshold)
-    edge = signals.edge_samples(fs, bandwidth.cutoff_hz)
-    observable[:edge] = observable[len(observable) - edge:] = False     # derivatives unreliable there
-    if not np.all(np.isfinite(stiffness)):
-        raise TrialError(where, f"the {protocol.discretisation} observer diverged with gain {gain:.3g} "
-                                "(use the exact discretisation or a lower gain)")
-    if observable.mean() < 0.5:
-        warnings.append(f"only {100 * observable.mean():.0f} % of the trial is informed by motion")
+    where = _where(trial)
+    filtered = filter_trial(trial, protocol)
+    derived = derive_settings(filtered, protocol, where=where)
+    ident = _mechanics(filtered, protocol, seed=seed, where=where)
+    estimate = _estimate(filtered, protocol, derived, ident)
+    observable = _observable(filtered, derived)
+    if not np.all(np.isfinite(estimate.stiffness)):
+        raise TrialError(where, f"the {protocol.discretisation} observer diverged with gain "
+                                f"{derived.observer_gain:.3g} (use the exact discretisation or a lower gain)")
     z = float(stats.norm.ppf(0.5 + protocol.ci_level / 2))
-    half = z * np.sqrt(np.maximum(estimate.variance_with(cov), 0.0))
-
-    if reference is None:
-        reference = trial.stiffness_true
-    details = {
-        "observer_gain": gain,
-        "observer_memory": 1.0 / gain,
-        "discretisation": protocol.discretisation,
-        "derivatives": protocol.derivatives,
-        "bandwidth": bandwidth.to_dict(),
-        "torque_quantisation_step": signals.quantisation_step(
-            trial.torque if trial.torque is not None else trial.elastic_torque),
-        "motion_frequency_hz": motion,
-        "range_of_motion": range_,
-        "velocity_threshold": threshold,
-        "observable_window_s": OBSERVABLE_PERIODS / motion,
-        "identification": ident,
-        "estimator": dict(estimate.details),
-    }
+    half = z * np.sqrt(np.maximum(estimate.variance_with(None if ident is None else ident.covariance), 0.0))
     return StiffnessResult(
-        trial=trial, variant=variant, estimator=protocol.estimator, stiffness=stiffness,
-        stiffness_lo=stiffness - half, stiffness_hi=stiffness + half, observable=observable,
-        inertia=m, damping=b, ci_level=protocol.ci_level, seed=seed, settings=protocol.to_dict(),
-        details=details, warnings=tuple(warnings), reference=reference, posterior=post)
+        trial=trial, variant=filtered.variant, estimator=protocol.estimator, stiffness=estimate.stiffness,
+        stiffness_lo=estimate.stiffness - half, stiffness_hi=estimate.stiffness + half, observable=observable,
+        inertia=None if ident is None else ident.inertia, damping=None if ident is None else ident.damping,
+        ci_level=protocol.ci_level, seed=seed, settings=protocol.to_dict(), filtered=filtered, derived=derived,
+        fit=estimate.fit, identification=ident, warnings=_warnings(trial, ident, observable),
+        reference=trial.stiffness_true if reference is None else reference)

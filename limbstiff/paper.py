@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import observer
-from .analysis import analyze, default_gain, derivatives
+from .estimate import observer
+from .analysis import analyze, default_gain
 from .protocol import Protocol
 from .simulate import simulate, simulate_with_truth
 
@@ -111,9 +111,10 @@ def _external(trial, truth, *, inertia, damping, name) -> Tracking:
     # is called directly with the same derivatives and settings the pipeline would use.
     protocol = Protocol(variant="external", estimator="observer", inertia=1.0, damping=1.0)
     result = analyze(trial, protocol)
-    angle, torques, _ = derivatives(trial, protocol)
-    gain = default_gain(angle[0])
-    drive = observer.external_drive(torques["torque"][1], angle[2], angle[3], inertia=inertia, damping=damping)
-    estimate = observer.observe(angle[1], drive, observer_gain=gain, sample_period=trial.sample_period,
-                                velocity_threshold=result.details["velocity_threshold"])
+    filtered = result.filtered
+    gain = default_gain(filtered.angle)
+    drive = observer.external_drive(filtered.torque_rate, filtered.acceleration, filtered.jerk, inertia=inertia,
+                                    damping=damping)
+    estimate = observer.observe(filtered.velocity, drive, observer_gain=gain, sample_period=trial.sample_period,
+                                velocity_threshold=result.derived.velocity_threshold)
     return Tracking(name, trial.time, estimate, trial.stiffness_true, result.observable, gain)

@@ -313,7 +313,7 @@ def _check(p: Protocol) -> None:
         raise ProtocolError(where, f"'ci_level' must be a number between 0 and 1, not {p.ci_level!r}")
     for label, prior in (("inertia", p.inertia_prior), ("damping", p.damping_prior)):
         _check_prior(where, label, prior)
-    from .io.units import UNITS
+    from .files.units import UNITS
     for quantity, column in p.columns.items():
         if column.unit is not None and column.unit not in UNITS:
             raise ProtocolError(where, f"unknown unit '{column.unit}' for {quantity} in [columns.{quantity}]")

@@ -14,31 +14,44 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import __version__
+from .estimate.estimators import EstimatorFit
+from .filtered import Filtered
+from .interval import Interval
+from .mechanics.identification import Identification
+from .mechanics.posterior import Posterior
 from .provenance import dependency_versions, settings_hash
 from .trial import Trial
 
+__all__ = ["StiffnessResult", "DerivedSettings", "Interval", "software"]
+
 
 @dataclass(frozen=True)
-class Interval:
-    """A value with its central credible interval.
+class DerivedSettings:
+    """Settings of one analysis that the protocol left open and the trial's data decided.
 
     Parameters
     ----------
-    median, lo, hi : float
-        Median and bounds, in the quantity's SI unit.
+    observer_gain : float, 1/rad (1/m)
+        α; by (8) the observer forgets its past over a path of 1/α.
+    discretisation : {"exact", "euler"}
+    range_of_motion : float, rad (m)
+        Span of the central 95 % of the angle.
+    velocity_threshold : float, rad/s (m/s)
+        Speeds below it count as no motion.
+    observable_window_s : float, s
+        Window over which recent motion must inform the estimate.
     """
 
-    median: float
-    lo: float
-    hi: float
+    observer_gain: float
+    discretisation: str
+    range_of_motion: float
+    velocity_threshold: float
+    observable_window_s: float
 
-    @classmethod
-    def fixed(cls, value: float) -> "Interval":
-        """A value known exactly (given by the user or the protocol)."""
-        return cls(float(value), float(value), float(value))
-
-    def to_dict(self) -> dict:
-        return {"median": self.median, "lo": self.lo, "hi": self.hi}
+    @property
+    def observer_memory(self) -> float:
+        """1/α, rad (m)."""
+        return 1.0 / self.observer_gain
 
 
 @dataclass(frozen=True)
@@ -62,14 +75,17 @@ class StiffnessResult:
     seed : int
     settings : Mapping[str, Any]
         The resolved protocol (file settings with command-line overrides).
-    details : Mapping[str, Any]
-        What was derived from the data: observer gain, bandwidth, thresholds, identification.
+    filtered : Filtered
+        The trial's filtered signals and the corner, noise levels and motion frequency chosen.
+    derived : DerivedSettings
+        Observer gain, velocity threshold, observability window derived from the data.
+    fit : EstimatorFit
+        What the estimator fitted (the Kalman model's noise levels…).
+    identification : Identification or None
+        How m and b were obtained (None for the direct variant).
     warnings : tuple of str
     reference : ndarray, shape (n,), or None
         Reference stiffness (``stiffness_true`` or a calibration), for validation.
-    posterior : posterior.Posterior or None
-        Draws of (m, b, noise levels) when m and b were identified (for the report's pairwise
-        plot); None when both were given or for the direct variant.
     """
 
     trial: Trial
@@ -83,11 +99,19 @@ class StiffnessResult:
     damping: Interval | None
     ci_level: float
     seed: int
-    settings: Mapping[str, Any] = field(default_factory=dict)
-    details: Mapping[str, Any] = field(default_factory=dict)
+    settings: Mapping[str, Any]
+    filtered: Filtered
+    derived: DerivedSettings
+    fit: EstimatorFit
+    identification: Identification | None = None
     warnings: tuple[str, ...] = ()
     reference: np.ndarray | None = None
-    posterior: Any = None
+
+    @property
+    def posterior(self) -> Posterior | None:
+        """Draws of (m, b, noise levels) when m and b were identified; None when both were given
+        or for the direct variant."""
+        return None if self.identification is None else self.identification.posterior
 
     @property
     def observable_fraction(self) -> float:
@@ -125,6 +149,24 @@ class StiffnessResult:
         return {"median": float(np.median(rel)), "p90": float(np.percentile(rel, 90)),
                 "coverage": float(np.mean(inside)), "n": int(use.sum())}
 
+    def details(self) -> dict:
+        """The ``details`` of ``summary.json``: what was derived from the data (JSON-ready)."""
+        f, d = self.filtered, self.derived
+        return {
+            "observer_gain": d.observer_gain,
+            "observer_memory": d.observer_memory,
+            "discretisation": d.discretisation,
+            "derivatives": f.chain.kind,
+            "bandwidth": f.bandwidth.to_dict(),
+            "torque_quantisation_step": f.torque_quantisation_step,
+            "motion_frequency_hz": f.motion_hz,
+            "range_of_motion": d.range_of_motion,
+            "velocity_threshold": d.velocity_threshold,
+            "observable_window_s": d.observable_window_s,
+            "identification": None if self.identification is None else self.identification.to_dict(),
+            "estimator": self.fit.to_dict(),
+        }
+
     def summary(self) -> dict:
         """The content of ``summary.json`` (INTERFACE.md section 4), JSON-ready."""
         obs = self.observable if np.any(self.observable) else np.ones_like(self.observable)
@@ -151,14 +193,14 @@ class StiffnessResult:
             "damping": None if self.damping is None else self.damping.to_dict(),
             "stiffness": stiffness,
             "observable_fraction": self.observable_fraction,
-            "mcmc": _jsonable((self.details.get("identification") or {}).get("mcmc")),
+            "mcmc": _jsonable(None if self.posterior is None else self.posterior.diagnostics.to_dict()),
             "reference_error": self.reference_error(),
             "warnings": list(self.warnings),
             "units": dict(trial.units),
             "seed": self.seed,
             "software": software(),
             "metadata": dict(trial.metadata),
-            "details": _jsonable(self.details),
+            "details": _jsonable(self.details()),
             "settings": _jsonable(self.settings),
             "settings_sha256": settings_hash(_jsonable(self.settings), length=64),
         }

@@ -76,12 +76,43 @@ def quantisation_step(x: np.ndarray) -> float:
     return q if np.mean(on_grid) > 0.95 else 0.0
 
 
+def welch_spectrum(x: np.ndarray, fs: float, *, seconds: float = 4.0) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided power spectrum of the detrended signal by Welch's method.
+
+    Segments are the power of two nearest above ``seconds`` of data (at least 256 samples, at
+    most the whole signal), so the resolution is about 1/``seconds`` Hz whatever the rate.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+    fs : float, Hz
+    seconds : float, s
+        Segment length wanted.
+
+    Returns
+    -------
+    freq : ndarray, shape (m,), Hz
+    psd : ndarray, shape (m,), unit of x squared per Hz
+    """
+    x = signal.detrend(np.asarray(x, dtype=float))
+    nperseg = int(min(len(x), max(256, 2 ** np.ceil(np.log2(seconds * fs)))))
+    return signal.welch(x, fs=fs, nperseg=nperseg)
+
+
+def _floor(freq: np.ndarray, psd: np.ndarray) -> float:
+    return float(np.median(psd[freq >= 0.8 * freq[-1]]))
+
+
+def spectral_floor(x: np.ndarray, fs: float) -> float:
+    """Noise floor of a recorded signal: the median Welch level over the top fifth of the band,
+    where a physiological or mechanical motion has no power left (unit of x squared per Hz)."""
+    return _floor(*welch_spectrum(x, fs))
+
+
 def _spectral_edge(x: np.ndarray, fs: float, snr: float) -> tuple[float, float]:
     """Highest frequency whose Welch level exceeds ``snr`` × the noise floor, and that floor."""
-    x = signal.detrend(np.asarray(x, dtype=float))
-    nperseg = int(min(len(x), max(256, 2 ** np.ceil(np.log2(4 * fs)))))
-    freq, psd = signal.welch(x, fs=fs, nperseg=nperseg)
-    floor = float(np.median(psd[freq >= 0.8 * freq[-1]]))
+    freq, psd = welch_spectrum(x, fs)
+    floor = _floor(freq, psd)
     above = np.flatnonzero(psd > snr * max(floor, 1e-300))
     return (float(freq[above[-1]]) if above.size else float(freq[1])), floor
 
@@ -242,6 +273,19 @@ def edge_samples(fs: float, cutoff_hz: float | None) -> int:
     return 4 + (0 if cutoff_hz is None else int(np.ceil(0.5 * fs / cutoff_hz)))
 
 
+def robust_sd(x: np.ndarray) -> float:
+    """Standard deviation of the bulk of ``x`` from its median absolute deviation (× 1.4826, exact
+    for Gaussian data), blind to the few outliers and steps a recording has."""
+    x = np.asarray(x, dtype=float)
+    return float(np.median(np.abs(x - np.median(x)))) * 1.4826
+
+
+def white_noise_sd(x: np.ndarray) -> float:
+    """Standard deviation of the white noise on a smooth signal, from its second differences:
+    white noise of sd s gives sd s in Δ²x/√6, while a smooth signal leaves almost nothing there."""
+    return robust_sd(np.diff(x, 2) / np.sqrt(6.0))
+
+
 def velocity_noise_level(angle: np.ndarray, fs: float, cutoff_hz: float | None) -> float:
     """Standard deviation of the noise in the velocity estimate, rad/s (m/s).
 
@@ -261,8 +305,7 @@ def velocity_noise_level(angle: np.ndarray, fs: float, cutoff_hz: float | None) 
     float
     """
     fc = fs / 2 if cutoff_hz is None else cutoff_hz
-    residual = np.diff(angle, 2) / np.sqrt(6.0)   # white noise of sd s gives sd s here
-    mad = float(np.median(np.abs(residual - np.median(residual)))) * 1.4826
+    mad = white_noise_sd(angle)
     q = quantisation_step(angle)
     noise_sd = max(mad, q / np.sqrt(12.0))
     return float(noise_sd * 2 * np.pi * np.sqrt(2.0 / fs * fc ** 3 / 3.0))
@@ -280,9 +323,7 @@ def motion_frequency(angle: np.ndarray, fs: float) -> float:
     -------
     float, Hz
     """
-    x = signal.detrend(np.asarray(angle, dtype=float))
-    nperseg = int(min(len(x), max(256, 2 ** np.ceil(np.log2(8 * fs)))))
-    freq, psd = signal.welch(x, fs=fs, nperseg=nperseg)
+    freq, psd = welch_spectrum(angle, fs, seconds=8.0)
     cum = np.cumsum(psd[1:])
     if cum[-1] <= 0:
         return float(freq[1])

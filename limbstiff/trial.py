@@ -1,6 +1,6 @@
 """The :class:`Trial`: one recording in SI units on a uniform time base.
 
-A trial is what every estimator works on. It is built by :func:`limbstiff.io.read_trial`
+A trial is what every estimator works on. It is built by :func:`limbstiff.files.read_trial`
 (from a file) or by :mod:`limbstiff.simulate` (from a scenario); both check it the same way,
 so the processing modules can take its invariants for granted: uniform, strictly increasing
 time; finite samples; SI units; at least one of ``torque`` and ``elastic_torque``.

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from limbstiff.io import write_trial
+from limbstiff.files import write_trial
 from limbstiff.trial import Trial
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "reklab-ankle"

@@ -11,7 +11,7 @@ import time
 import pandas as pd
 from click.testing import CliRunner
 
-from limbstiff.batch import TrialOutcome
+from limbstiff.batch.runner import TrialOutcome
 from limbstiff.cli import main
 from limbstiff.cli.progress import Progress
 
@@ -126,7 +126,7 @@ def test_progress_bar_on_a_terminal():
 
 
 def test_folders_are_searched_for_every_trial_format(tmp_path):
-    from limbstiff.batch import discover
+    from limbstiff.batch.discovery import discover
     for name in ("a.csv", "b.TSV", "sub/c.mat", "README.txt", ".hidden.csv", "notes.md"):
         (tmp_path / name).parent.mkdir(exist_ok=True)
         (tmp_path / name).write_text("x")

@@ -164,7 +164,7 @@ def test_simulate_writes_a_trial_analyze_can_read(tmp_path):
     res = run("simulate", "elbow", "--seed", 3, "--set", "duration=4", "--effect", "reflex",
               "--effect-param", "delay=0.05", "--out", path)
     assert res.exit_code == 0, res.output
-    from limbstiff.io import read_trial
+    from limbstiff.files import read_trial
     trial = read_trial(path)
     assert trial.stiffness_true is not None and trial.metadata["effect"] == "reflex"
     assert float(trial.metadata["effect.delay"]) == pytest.approx(0.05)

@@ -12,9 +12,9 @@ import pytest
 from click.testing import CliRunner
 
 from limbstiff.cli import main
-from limbstiff.diagnose import select, where
-from limbstiff.diagnose.run import diagnose
-from limbstiff.io import write_trial
+from limbstiff.gap import selection, where
+from limbstiff.gap.run import diagnose
+from limbstiff.files import write_trial
 from limbstiff.protocol import Protocol
 from limbstiff.simulate import effect_defaults, simulate
 
@@ -100,10 +100,10 @@ def test_coherence_of_a_linear_residual():
 
 def test_sign_flip_test_and_holm():
     rng = np.random.default_rng(6)
-    assert select.sign_flip_pvalue(np.ones(20), rng) < 1e-3
-    assert select.sign_flip_pvalue(np.ones(8), rng) == pytest.approx(1 / 256)       # exact enumeration
-    assert select.sign_flip_pvalue(rng.normal(size=40), rng) > 0.01
-    adj = select.holm({"a": 0.01, "b": 0.04, "c": 0.03})
+    assert selection.sign_flip_pvalue(np.ones(20), rng) < 1e-3
+    assert selection.sign_flip_pvalue(np.ones(8), rng) == pytest.approx(1 / 256)       # exact enumeration
+    assert selection.sign_flip_pvalue(rng.normal(size=40), rng) > 0.01
+    adj = selection.holm({"a": 0.01, "b": 0.04, "c": 0.03})
     assert adj == {"a": 0.03, "c": 0.06, "b": 0.06}
 
 

@@ -8,7 +8,7 @@ Seeds here (7, 8) differ from the benchmark's (100+).
 import numpy as np
 import pytest
 
-from limbstiff import kernels
+from limbstiff.estimate import kernels
 from limbstiff.analysis import analyze
 from limbstiff.protocol import Protocol
 from limbstiff.simulate import simulate
@@ -69,19 +69,18 @@ def test_observer_sensitivity_is_exact():
     for est in ("observer", "observer-smoothed", "kalman"):
         base = analyze(trial, Protocol(estimator=est, inertia=0.06, damping=0.45))
         moved = analyze(trial, Protocol(estimator=est, inertia=0.066, damping=0.40))
-        from limbstiff import analysis, estimators
-        angle, torques, bw = analysis.derivatives(trial, Protocol())
-        sig = estimators.Signals(angle, torques["torque"], trial.sample_period, bw.cutoff_hz)
+        from limbstiff.estimate import estimators
+        filtered = base.filtered
         kw = dict(inertia=0.06, damping=0.45)
         if est == "kalman":
-            noise = estimators.smoothing.NoiseLevels(**base.details["estimator"]["noise_levels"])
-            e0 = estimators.kalman(sig, motion_frequency=1.0, noise=noise, **kw)
-            e1 = estimators.kalman(sig, motion_frequency=1.0, noise=noise, inertia=0.066, damping=0.40)
+            noise = base.fit.noise
+            e0 = estimators.kalman(filtered, noise=noise, **kw)
+            e1 = estimators.kalman(filtered, noise=noise, inertia=0.066, damping=0.40)
         else:
-            opts = dict(smoothed=est == "observer-smoothed", gain=base.details["observer_gain"],
-                        velocity_threshold=base.details["velocity_threshold"])
-            e0 = estimators.observers(sig, **opts, **kw)
-            e1 = estimators.observers(sig, **opts, inertia=0.066, damping=0.40)
+            opts = dict(smoothed=est == "observer-smoothed", gain=base.derived.observer_gain,
+                        velocity_threshold=base.derived.velocity_threshold)
+            e0 = estimators.observers(filtered, **opts, **kw)
+            e1 = estimators.observers(filtered, **opts, inertia=0.066, damping=0.40)
         predicted = e0.stiffness + 0.006 * e0.sensitivity[0] - 0.05 * e0.sensitivity[1]
         scale = np.max(np.abs(e1.stiffness))
         assert np.max(np.abs(predicted - e1.stiffness)) < 1e-8 * scale
@@ -97,10 +96,11 @@ def test_compiled_kernels_equal_the_reference():
                                kernels.linear_recursion.py_func(a, c, 0.3), rtol=1e-12)
     d, z, acc, vel = 0.01 * rng.standard_normal((4, n))
     args = (d, z, 1e-3, 1e-4, 1e-2, 0.0, 1.0, 1.0, 0.0, 4.0)
-    fast, ref = kernels.kalman_moments(*args), kernels.kalman_moments.py_func(*args)
+    fast, ref = kernels.kalman_filter(*args, True), kernels.kalman_filter.py_func(*args, True)
     for x, y in zip(fast, ref):
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
-    for x, y in zip(kernels.rts_smoother(d, *fast[:4]), kernels.rts_smoother.py_func(d, *ref[:4])):
+    assert kernels.kalman_loglik(*args) == pytest.approx(fast[2], rel=1e-12)
+    for x, y in zip(kernels.rts_smoother(d, *fast[:2], 1e-4, 1e-2), kernels.rts_smoother.py_func(d, *ref[:2], 1e-4, 1e-2)):
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
     chans, slopes = np.vstack([z, acc, vel]), np.array([0.3, 0.1, 0.2])
     args = (d, chans, slopes, 1e-3, 1e-4, 1e-2, 1.0, 4.0, np.zeros(n, dtype=bool))
@@ -116,6 +116,27 @@ def test_compiled_kernels_equal_the_reference():
     assert -0.5 * (n * np.log(2 * np.pi) + sls + w @ a @ w) == pytest.approx(direct, rel=1e-10)
 
 
+def test_smoother_in_place_equals_the_textbook_pass():
+    # The RTS pass recomputes the predicted moments instead of storing them; a textbook pass
+    # with explicit matrices and stored predictions (written here independently) must agree.
+    rng = np.random.default_rng(5)
+    n, r, qs, qk = 300, 1e-3, 1e-4, 1e-2
+    d, z = 0.01 * rng.standard_normal((2, n))
+    mean, cov, _ = kernels.kalman_filter(d, z, r, qs, qk, 0.0, 1.0, 1.0, 0.0, 4.0, False)
+    filt_m = [np.array(m) for m in mean]
+    filt_p = [np.array([[c[0], c[1]], [c[1], c[2]]]) for c in cov]
+    sm, sc = kernels.rts_smoother(d, mean.copy(), cov.copy(), qs, qk)
+    xs, ps = filt_m[-1], filt_p[-1]
+    for i in range(n - 2, -1, -1):
+        f = np.array([[1.0, d[i + 1]], [0.0, 1.0]])
+        xp, pp = f @ filt_m[i], f @ filt_p[i] @ f.T + np.diag([qs, qk])
+        c = filt_p[i] @ f.T @ np.linalg.inv(pp)
+        xs, ps = filt_m[i] + c @ (xs - xp), filt_p[i] + c @ (ps - pp) @ c.T
+        # matrix products in another order than the kernel's: agreement to rounding, not bits
+        np.testing.assert_allclose(sm[i], xs, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(sc[i], [ps[0, 0], ps[0, 1], ps[1, 1]], rtol=1e-8, atol=1e-12)
+
+
 @pytest.mark.parametrize("joint, params", [
     ("elbow", {"inertia": 0.07, "damping": 0.35, "duration": 10.0}),
     ("ankle", {"inertia": 0.012, "damping": 1.2, "duration": 10.0}),
@@ -124,8 +145,9 @@ def test_posterior_recovers_inertia_and_damping(joint, params):
     # seeds and sizes differ from benchmarks/identify.py; its 200-trial study finds median
     # errors of a fraction of a percent, so 5 % (m) and 10 % (b) are the targets
     from limbstiff.analysis import identify_trial
-    s = identify_trial(simulate(joint, seed=77, params=params), Protocol(), seed=3)["summary"]
-    assert s["inertia"]["median"] == pytest.approx(params["inertia"], rel=0.05)
-    assert s["damping"]["median"] == pytest.approx(params["damping"], rel=0.10)
-    assert s["mcmc"]["converged"] and s["mcmc"]["chain_in_autocorr_times"] >= 50
-    assert s["inertia"]["lo"] < s["inertia"]["median"] < s["inertia"]["hi"]
+    ident = identify_trial(simulate(joint, seed=77, params=params), Protocol(), seed=3)
+    assert ident.inertia.median == pytest.approx(params["inertia"], rel=0.05)
+    assert ident.damping.median == pytest.approx(params["damping"], rel=0.10)
+    mcmc = ident.posterior.diagnostics
+    assert mcmc.converged and mcmc.chain_in_autocorr_times >= 50
+    assert ident.inertia.lo < ident.inertia.median < ident.inertia.hi

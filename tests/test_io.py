@@ -1,4 +1,4 @@
-"""Tests of limbstiff.io: reading and writing trial CSVs, units, atomic writes."""
+"""Tests of limbstiff.files: reading and writing trial CSVs, units, atomic writes."""
 
 from __future__ import annotations
 
@@ -13,11 +13,10 @@ import pytest
 from limbstiff.errors import ProtocolError
 
 from limbstiff.errors import TrialError
-from limbstiff.io import (UNITS, atomic_write_bytes, atomic_write_text, read_trial, sha256_file,
-                          write_trial)
-from limbstiff.io import atomic as atomic_module
-from limbstiff.io.atomic import atomic_output
-from limbstiff.io.units import parse_standard_header, to_si, unit_in_header
+from limbstiff.files import UNITS, atomic_write_bytes, atomic_write_text, read_trial, sha256_file, write_trial
+from limbstiff.files import atomic as atomic_module
+from limbstiff.files.atomic import atomic_output
+from limbstiff.files.units import parse_standard_header, to_si, unit_in_header
 from limbstiff.protocol import protocol_from_dict
 from limbstiff.trial import MIN_SAMPLES, Trial
 

@@ -16,8 +16,8 @@ import scipy.io as sio
 from click.testing import CliRunner
 
 from limbstiff.errors import ProtocolError, TrialError
-from limbstiff.io import read_trial, write_trial
-from limbstiff.io.mat import V73
+from limbstiff.files import read_trial, write_trial
+from limbstiff.files.mat import V73
 from limbstiff.protocol import load_protocol, protocol_from_dict
 
 from .conftest import multisine_trial

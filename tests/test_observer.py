@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from limbstiff import observer
+from limbstiff.estimate import observer
 
 FS = 1000.0
 TS = 1 / FS

@@ -8,7 +8,7 @@ z_pf I 0.0165 B 0.65 K 69; z_pf2 I 0.0149 B 1.48 K 127.
 import pytest
 
 from limbstiff.analysis import analyze
-from limbstiff.io import read_trial
+from limbstiff.files import read_trial
 from limbstiff.protocol import load_protocol
 
 from .conftest import PROTOCOLS, REAL

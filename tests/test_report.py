@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import limbstiff
-from limbstiff.posterior import Posterior
+from limbstiff.mechanics.posterior import Posterior
 from limbstiff.provenance import dependency_versions, settings_hash
 from limbstiff.simulate import simulate
 
@@ -140,8 +140,9 @@ def test_unobservable_constant_torque_and_one_fixed_parameter(fixed, elbow, tmp_
     # damping given, inertia identified: the draws' damping column is constant
     draws = elbow.posterior.draws.copy()
     draws[:, 1] = 0.45
-    one = dataclasses.replace(elbow, posterior=Posterior(draws, elbow.posterior.diagnostics),
-                              damping=limbstiff.result.Interval.fixed(0.45))
+    ident = dataclasses.replace(elbow.identification, posterior=Posterior(draws, elbow.posterior.diagnostics),
+                                damping=limbstiff.result.Interval.fixed(0.45))
+    one = dataclasses.replace(elbow, identification=ident, damping=ident.damping)
     check_figures([report_figures(one)[3]])
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from limbstiff import kernels, observer, scan
+from limbstiff.estimate import kernels, observer, scan
 
 # The loop is x[k] = a[k]·x[k−1] + c[k] itself; kernels.linear_recursion.py_func is that loop in
 # CPython whether or not numba compiled the module.

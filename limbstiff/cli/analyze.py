@@ -34,7 +34,7 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 def command(paths, protocol_path, out, jobs, seed, no_pdf, inertia, damping, observer_gain, estimator,
             reference_path, sort_by, overwrite, resume):
     """Estimate the stiffness of every trial in PATHS (files, folders, globs)."""
-    from ..pipeline import analyze_files, check_reference
+    from ..batch.jobs import analyze_files, check_reference
     from .progress import Progress
 
     protocol = load_protocol_or_default(protocol_path).override(

@@ -19,8 +19,8 @@ from .options import fail, reports_errors
 def command(pairs, x_col, f_col, out):
     """Fit f = a·e^(b·x) to the force–displacement PAIRS (CSV) and write the calibration."""
     from ..calibrate import fit_exponential_spring
-    from ..io.pairs import read_pairs
-    from ..io.outputs import write_json
+    from ..files.pairs import read_pairs
+    from ..files.outputs import write_json
 
     x, f = read_pairs(pairs, displacement=x_col, force=f_col)
     try:

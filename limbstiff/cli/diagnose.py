@@ -27,7 +27,7 @@ def _progress(name, error):
 def command(paths, protocol_path, out, seed, inertia, damping):
     """Diagnose the gap between the nominal model and the trials in PATHS (together: several
     trials are held out one at a time); write diagnosis.json and diagnosis.pdf."""
-    from ..diagnose.run import diagnose_files
+    from ..gap.run import diagnose_files
 
     report = diagnose_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, seed=seed,
                             inertia=inertia, damping=damping, progress=_progress)

@@ -19,7 +19,7 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 def command(paths, protocol_path, out, jobs, seed, overwrite):
     """Identify inertia and damping of every trial in PATHS; write posterior.json and draws.csv."""
     from .progress import Progress
-    from ..pipeline import identify_files
+    from ..batch.jobs import identify_files
 
     finish(identify_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, jobs=n_jobs(jobs),
                           seed=seed, overwrite=overwrite, progress=Progress()))

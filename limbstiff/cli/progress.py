@@ -15,7 +15,7 @@ import click
 
 
 class Progress:
-    """``progress(outcome, done, total)`` callback for :func:`limbstiff.pipeline.analyze_files`.
+    """``progress(outcome, done, total)`` callback for :func:`limbstiff.batch.jobs.analyze_files`.
 
     Parameters
     ----------

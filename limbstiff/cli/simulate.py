@@ -33,7 +33,7 @@ def _pairs(values, what):
 @reports_errors
 def command(scenario, out, seed, effect, params, effect_params, list_):
     """Simulate SCENARIO and write it in the input format, with a stiffness_true column."""
-    from ..io import write_trial
+    from ..files import write_trial
     from ..simulate import EFFECTS, SCENARIOS, simulate
 
     if list_:

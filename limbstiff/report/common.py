@@ -15,7 +15,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from .. import __version__
-from ..io.atomic import atomic_output
+from ..files.atomic import atomic_output
 
 #: A4 portrait, inches.
 A4 = (8.27, 11.69)

@@ -2,7 +2,7 @@
 before/after, and the residual before and after the chosen effects.
 
 Plotting only (non-interactive Agg backend, Figure objects, PdfPages); the numbers come from a
-:class:`~limbstiff.diagnose.result.Diagnosis`. Written atomically.
+:class:`~limbstiff.gap.result.Diagnosis`. Written atomically.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..io.atomic import atomic_output
+from ..files.atomic import atomic_output
 
 A4 = (8.27, 11.69)
 #: Trials given their own pages (the rest are summarised in diagnosis.json).
@@ -214,7 +214,7 @@ def _residual_page(fig, d, name, s):
 
 
 def write_diagnosis_report(diagnosis, path) -> None:
-    """Write the PDF of a :class:`~limbstiff.diagnose.result.Diagnosis`, atomically.
+    """Write the PDF of a :class:`~limbstiff.gap.result.Diagnosis`, atomically.
 
     Pages: summary; ranked effects with held-out shrinkage and intervals; per trial (up to
     :data:`MAX_TRIAL_PAGES`) the gap map over time, frequency and regime, and the residual

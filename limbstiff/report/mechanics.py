@@ -86,15 +86,15 @@ def mechanics_page(result):
         text_panel(ax, why, title="No posterior of inertia and damping", wrap=80)
         return fig
     draws = np.asarray(post.draws, float)
-    ident = result.details.get("identification") or {}
-    ls, ml = ident.get("least_squares") or {}, ident.get("maximum_likelihood") or {}
+    ident = result.identification
+    ls, ml = ident.least_squares, ident.maximum_likelihood
     ci = result.ci_level
     params = [("inertia", "m", u["inertia"], result.inertia), ("damping", "b", u["damping"], result.damping)]
     free = [j for j in range(2) if np.ptp(draws[:, j]) > 0]
     outer = fig.add_gridspec(2, 1, height_ratios=[2, 0.75])
     gs = outer[0].subgridspec(2, 2)
-    marks_of = {j: [("least squares", ls.get(params[j][0]), "s", "C1"),
-                    ("max. likelihood", ml.get(params[j][0]), "D", "C3")] for j in range(2)}
+    marks_of = {j: [("least squares", getattr(ls, params[j][0]), "s", "C1"),
+                    ("max. likelihood", getattr(ml, params[j][0]), "D", "C3")] for j in range(2)}
     lims, inside = {}, {}
     for j in free:
         lims[j], inside[j] = _limits(draws[:, j], [v for _, v, _, _ in marks_of[j]])

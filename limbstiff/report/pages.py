@@ -41,7 +41,7 @@ def summary_page(result):
     fig = new_page(constrained=False)
     s = result.summary()
     u, ci = s["units"], s["ci_level"]
-    ident = s["details"].get("identification") or {}
+    ident = result.identification
     lines = [
         ("Trial", s["trial"]),
         ("Source", s["source"] or "(in memory)"),
@@ -51,18 +51,18 @@ def summary_page(result):
         ("Stiffness range", f"{fmt(s['stiffness']['min'])} to {fmt(s['stiffness']['max'], u['stiffness'])} "
                             + ("(informed samples)" if result.observable.any() else "(all samples: none is informed)")),
     ]
-    expected = ident.get("inertia_in_expected_range")
+    expected = None if ident is None else ident.expected_inertia
     for name in ("inertia", "damping"):
         v = s[name]
         if v is None:
             text = "not needed (direct variant: the elastic torque is measured)"
         else:
             text = fmt_interval(v, u[name], ci)
-            if ident.get("method") == "given" or v["lo"] == v["hi"]:
+            if (ident is not None and ident.given) or v["lo"] == v["hi"]:
                 text = f"{fmt(v['median'], u[name])} (given, not identified)"
         if name == "inertia" and expected:
-            lo, hi = expected["range"]
-            text += f"; {'within' if expected['inside'] else 'OUTSIDE'} the expected {lo:g}–{hi:g}"
+            lo, hi = expected
+            text += f"; {'within' if ident.inertia_in_expected_range else 'OUTSIDE'} the expected {lo:g}–{hi:g}"
         lines.append((name.capitalize(), text))
     lines.append(("Informed by motion", f"{100 * s['observable_fraction']:.1f} % of the trial"))
     err = s.get("reference_error")

@@ -23,10 +23,8 @@ def spectrum(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
     freq : ndarray, Hz
     asd : ndarray, unit of x per √Hz
     """
-    from scipy import signal
-    x = signal.detrend(np.asarray(x, dtype=float))
-    nperseg = int(min(len(x), max(256, 2 ** np.ceil(np.log2(4 * fs)))))
-    freq, psd = signal.welch(x, fs=fs, nperseg=nperseg)
+    from ..signals import welch_spectrum
+    freq, psd = welch_spectrum(x, fs)
     return freq, np.sqrt(psd)
 
 
@@ -71,30 +69,29 @@ def _quantisation_rows(label, unit, step, x):
 
 
 def _mcmc_rows(result):
-    ident = result.details.get("identification") or {}
-    mcmc = ident.get("mcmc")
-    if not mcmc:
+    ident = result.identification
+    if ident is None or ident.posterior is None:
         why = "direct variant" if result.variant == "direct" else "inertia and damping given"
         return f"No MCMC was run ({why})."
-    rows = [("sampler", f"{mcmc.get('sampler', 'emcee')}, seed {mcmc.get('seed')}"),
-            ("walkers × steps", f"{mcmc.get('n_walkers')} × {mcmc.get('n_steps')} "
-                                f"(burn-in {mcmc.get('burn_in')}, thin {mcmc.get('thin')})")]
-    for name, tau in (mcmc.get("autocorr_time") or {}).items():
+    mcmc = ident.posterior.diagnostics
+    rows = [("sampler", f"emcee, seed {mcmc.seed}"),
+            ("walkers × steps", f"{mcmc.n_walkers} × {mcmc.n_steps} (burn-in {mcmc.burn_in}, thin {mcmc.thin})")]
+    for name, tau in mcmc.autocorr_time.items():
         short = {"log_measurement": "τ ln R", "log_torque_walk": "τ ln Q_s",
                  "log_stiffness_walk": "τ ln Q_σ"}.get(name, f"τ {name}")
         rows.append((short, f"{fmt(tau, 'steps', 3)}"))
-    rows += [("chain / τ", f"{fmt(mcmc.get('chain_in_autocorr_times'), '', 3)} (≥ 50 wanted)"),
-             ("acceptance", f"{fmt(mcmc.get('acceptance_fraction'), '', 3)}"),
-             ("converged", "yes" if mcmc.get("converged") else "NO: chain shorter than 50 τ"),
-             ("decimation", f"{ident.get('decimation', '—')} samples per filter step")]
+    rows += [("chain / τ", f"{fmt(mcmc.chain_in_autocorr_times, '', 3)} (≥ 50 wanted)"),
+             ("acceptance", f"{fmt(mcmc.acceptance_fraction, '', 3)}"),
+             ("converged", "yes" if mcmc.converged else "NO: chain shorter than 50 τ"),
+             ("decimation", f"{ident.decimation} samples per filter step")]
     return rows
 
 
 def quality_page(result):
     """Data quality: sampling, bandwidth, quantisation, observer settings, MCMC diagnostics."""
-    trial, d = result.trial, result.details
+    trial, f, d = result.trial, result.filtered, result.derived
     u, word = trial.units, names(trial)
-    bw = d.get("bandwidth") or {}
+    bw = f.bandwidth
     key, torque = recorded_torque(result)
     fig = new_page("Data quality")
     gs = fig.add_gridspec(4, 2, height_ratios=[0.85, 1.2, 1.2, 1.05])
@@ -104,28 +101,28 @@ def quality_page(result):
     sampling += [("reading notes" if i == 0 else "", w) for i, w in enumerate(reading)]
     text_panel(fig.add_subplot(gs[0, 0]), sampling, title="Sampling", key_width=0.3, wrap=42,
                fontsize=FONT["small"])
-    cutoff = bw.get("cutoff_hz")
-    chain = d.get("derivatives", "zero-phase")
+    cutoff = bw.cutoff_hz
+    chain = f.chain.kind
     filt = "paper's causal chain (Sec. V)" if chain == "paper" else (
         f"zero-phase Butterworth, corner {cutoff:.4g} Hz" if cutoff else "none (signal edge above fs/4)")
     observer = [("derivatives", filt),
-                ("signal edge", fmt(bw.get("signal_edge_hz"), "Hz")),
-                ("motion frequency", fmt(d.get("motion_frequency_hz"), "Hz")),
-                ("range of motion", fmt(d.get("range_of_motion"), u["angle"])),
-                ("observer gain α", f"{fmt(d.get('observer_gain'), '1/' + u['angle'])} "
-                                    f"(memory {fmt(d.get('observer_memory'), u['angle'], 3)})"),
-                ("informed window", f"{fmt(d.get('observable_window_s'), 's', 3)}; speed above "
-                                    f"{fmt(d.get('velocity_threshold'), u['angle'] + '/s', 3)}"),
+                ("signal edge", fmt(bw.signal_edge_hz, "Hz")),
+                ("motion frequency", fmt(f.motion_hz, "Hz")),
+                ("range of motion", fmt(d.range_of_motion, u["angle"])),
+                ("observer gain α", f"{fmt(d.observer_gain, '1/' + u['angle'])} "
+                                    f"(memory {fmt(d.observer_memory, u['angle'], 3)})"),
+                ("informed window", f"{fmt(d.observable_window_s, 's', 3)}; speed above "
+                                    f"{fmt(d.velocity_threshold, u['angle'] + '/s', 3)}"),
                 ("informed", f"{100 * result.observable_fraction:.1f} % of the samples")]
     text_panel(fig.add_subplot(gs[0, 1]), observer, title="Filter and observer", key_width=0.36, wrap=36,
                fontsize=FONT["small"])
-    edge = bw.get("signal_edge_hz")
+    edge = bw.signal_edge_hz
     _spectrum_axes(fig.add_subplot(gs[1, :]), trial.angle, trial.fs, label=word["angle"], unit=u["angle"],
-                   cutoff=cutoff, edge=edge, step=bw.get("quantisation_step"), floor=bw.get("noise_floor"))
+                   cutoff=cutoff, edge=edge, step=bw.quantisation_step, floor=bw.noise_floor)
     _spectrum_axes(fig.add_subplot(gs[2, :]), torque, trial.fs, label=word[key], unit=u[key],
-                   cutoff=cutoff, edge=edge, step=d.get("torque_quantisation_step"))
-    quant = (_quantisation_rows(word["angle"], u["angle"], bw.get("quantisation_step"), trial.angle)
-             + _quantisation_rows(word[key], u[key], d.get("torque_quantisation_step"), torque))
+                   cutoff=cutoff, edge=edge, step=f.torque_quantisation_step)
+    quant = (_quantisation_rows(word["angle"], u["angle"], bw.quantisation_step, trial.angle)
+             + _quantisation_rows(word[key], u[key], f.torque_quantisation_step, torque))
     text_panel(fig.add_subplot(gs[3, 0]), quant, title="Quantisation", key_width=0.36, wrap=36,
                fontsize=FONT["small"])
     text_panel(fig.add_subplot(gs[3, 1]), _mcmc_rows(result), title="MCMC (inertia, damping)", key_width=0.36,

@@ -11,6 +11,8 @@ import numpy as np
 from scipy import signal as sps
 from scipy import stats
 
+from ..signals import robust_sd
+
 
 def _z(level: float) -> float:
     return float(stats.norm.ppf(0.5 + level / 2))
@@ -236,7 +238,7 @@ def change_points(values: np.ndarray, *, penalty: float | None = None, min_size:
         return []
     if penalty is None:
         d = np.diff(x)
-        sigma = float(np.median(np.abs(d - np.median(d))) * 1.4826 / np.sqrt(2.0))
+        sigma = robust_sd(d) / np.sqrt(2.0)
         penalty = 2.0 * max(sigma, 1e-12) ** 2 * np.log(n)
     found = []
 

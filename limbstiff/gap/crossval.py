@@ -145,7 +145,7 @@ def _base(problem: Problem, components) -> list[_TrialBase]:
         ch, regs, local = compose(ch0, components)
         rows = lay.rows
         loc = _rows_matrix(local, rows) if local else None
-        proj = nominal.projector(ch.angle[0][rows], ch.time[rows], lay, loc)
+        proj = nominal.projector(ch.angle[rows], ch.time[rows], lay, loc)
         R = _rows_matrix(regs, rows)
         out.append(_TrialBase(signature, ch, R, loc, proj, proj.project(ch.elastic_target()[rows]),
                               proj.project(R)))
@@ -164,7 +164,7 @@ def _term_rows(problem, i, b, effect, shape):
         if term.angle is not None or term.torque is not None:
             ch = b.ch.with_channels(angle=term.angle, torque=term.torque)
             z = ch.elastic_target()[rows]
-            y = None if term.angle is None else ch.angle[0][rows]
+            y = None if term.angle is None else ch.angle[rows]
         regs = None if term.regressors is None else term.regressors[:, rows].T.copy()
         hit = problem.cache[key] = (y, z, regs)
     return hit

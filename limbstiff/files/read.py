@@ -2,10 +2,10 @@
 
 | extension | reader |
 |---|---|
-| ``.csv``, ``.tsv``, ``.txt`` | :func:`limbstiff.io.text.read_text` (comma, tab or semicolon, detected) |
-| ``.mat`` | :func:`limbstiff.io.mat.read_mat` (MATLAB v4–v7; v7.3/HDF5 is refused) |
+| ``.csv``, ``.tsv``, ``.txt`` | :func:`limbstiff.files.text.read_text` (comma, tab or semicolon, detected) |
+| ``.mat`` | :func:`limbstiff.files.mat.read_mat` (MATLAB v4–v7; v7.3/HDF5 is refused) |
 
-Every reader ends in :func:`limbstiff.io.validate.checked_trial`, so a trial is checked the
+Every reader ends in :func:`limbstiff.files.validate.checked_trial`, so a trial is checked the
 same way whatever its format.
 """
 

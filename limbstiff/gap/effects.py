@@ -26,7 +26,7 @@ from typing import Callable, Mapping
 import numpy as np
 from scipy import signal as sps
 
-from ..observer import linear_recursion
+from ..estimate.observer import linear_recursion
 from .channels import Channels
 
 
@@ -55,7 +55,7 @@ class Scales:
     def of(cls, channels) -> "Scales":
         def med(f):
             return float(np.median([f(c) for c in channels]))
-        return cls(velocity=med(lambda c: np.sqrt(np.mean(c.angle[1] ** 2))), angle=med(lambda c: np.std(c.angle[0])),
+        return cls(velocity=med(lambda c: np.sqrt(np.mean(c.velocity ** 2))), angle=med(lambda c: np.std(c.angle)),
                    velocity_noise=med(lambda c: c.velocity_noise), angle_resolution=med(lambda c: c.angle_resolution),
                    motion_hz=med(lambda c: c.motion_hz))
 
@@ -245,7 +245,7 @@ def filtered_torque(ch: Channels, x: np.ndarray) -> np.ndarray:
     and split as above still 11 %, both by fitting the filtered angle noise; unfiltered, 0 %.
     """
     x = np.asarray(x, float)
-    if ch.chain == "paper":
+    if ch.chain.kind == "paper":
         # a causal chain lags: the filtered signals already carry the prefilter's lag, and a second
         # pass would lag the torque twice (measured on the elbow with a reflex at 66.7 Hz)
         return x
@@ -261,16 +261,16 @@ def _geom(lo: float, hi: float, k: int) -> list[float]:
 # --- the library --------------------------------------------------------------------------
 
 def _coulomb(ch, sh):
-    return Term(regressors=filtered_torque(ch, np.tanh(ch.angle[1] / sh["smoothing_velocity"]))[None])
+    return Term(regressors=filtered_torque(ch, np.tanh(ch.velocity / sh["smoothing_velocity"]))[None])
 
 
 def _quadratic(ch, sh):
-    v = ch.angle[1]
+    v = ch.velocity
     return Term(regressors=filtered_torque(ch, v * np.abs(v))[None])
 
 
 def _hysteresis(ch, sh):
-    return Term(regressors=filtered_torque(ch, dahl(ch.angle[0], sh["characteristic_angle"]))[None])
+    return Term(regressors=filtered_torque(ch, dahl(ch.angle, sh["characteristic_angle"]))[None])
 
 
 def _backlash(ch, sh):
@@ -285,13 +285,13 @@ def _time_delay(ch, sh):
 
 def _reflex(ch, sh):
     s = sh["direction"]
-    vd = np.interp(ch.time - sh["delay"], ch.time, ch.angle[1], left=0.0)
+    vd = np.interp(ch.time - sh["delay"], ch.time, ch.velocity, left=0.0)
     drive = s * np.maximum(s * vd, 0.0)
     return Term(regressors=filtered_torque(ch, _activation(drive, ch.fs, sh["activation_hz"]))[None])
 
 
 def _gravity(ch, sh):
-    return Term(regressors=-np.sin(ch.angle[0] + sh["angle_offset"])[None])
+    return Term(regressors=-np.sin(ch.angle + sh["angle_offset"])[None])
 
 
 def _drift(ch, sh):
@@ -305,11 +305,11 @@ def _drift(ch, sh):
 
 
 def _inertia(ch, sh):
-    return Term(regressors=ch.angle[2][None])
+    return Term(regressors=ch.acceleration[None])
 
 
 def _damping(ch, sh):
-    return Term(regressors=ch.angle[1][None])
+    return Term(regressors=ch.velocity[None])
 
 
 REFLEX_DELAYS_S = tuple(np.round(np.arange(0.020, 0.0801, 0.005), 3))

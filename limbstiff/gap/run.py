@@ -20,7 +20,7 @@ from ..analysis import analyze, range_of_motion
 from ..errors import LimbstiffError, TrialError
 from ..protocol import Protocol
 from ..trial import Trial
-from . import crossval, nominal, select, where
+from . import crossval, nominal, selection, where
 from .channels import Channels, channels_from
 from .effects import EFFECTS, remove
 from .result import Candidate, Diagnosis
@@ -90,7 +90,7 @@ def _full_residual(ch: Channels, components, coef: np.ndarray):
     if regs:
         z = z - coef @ np.vstack(regs)[:, rows]
     loc = np.vstack(local)[:, rows].T if local else None
-    proj = nominal.projector(chc.angle[0][rows], chc.time[rows], lay, loc)
+    proj = nominal.projector(chc.angle[rows], chc.time[rows], lay, loc)
     return lay, proj.project(z)
 
 
@@ -98,7 +98,7 @@ def _where(ch: Channels, lay, residual: np.ndarray, decimation: int) -> dict:
     rows = lay.rows
     f = ch.torque[rows]
     dev_power = float(np.mean((f - f.mean()) ** 2))
-    y, v = ch.angle[0][rows], ch.angle[1][rows]
+    y, v = ch.angle[rows], ch.velocity[rows]
     t = ch.time[rows]
     # time: gap per window, change points of its logarithm
     wins = np.unique(lay.window)
@@ -175,13 +175,13 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     effects = dict(EFFECTS if effects is None else effects)
     trials = list(trials)
     results = list(results) if results is not None else [analyze(t, protocol, seed=seed) for t in trials]
-    channels = [channels_from(t, r, protocol) for t, r in zip(trials, results)]
+    channels = [channels_from(t, r) for t, r in zip(trials, results)]
     try:
         problem = crossval.build_problem(channels, blocks=blocks)
     except ValueError as exc:
         raise TrialError(str(exc).split(":")[0], str(exc).split(":", 1)[1].strip()) from None
     rng = np.random.default_rng(seed)
-    sel = select.select(problem, effects, rng=rng)
+    sel = selection.select(problem, effects, rng=rng)
     level = protocol.ci_level
     den = float(np.sum(problem.deviation ** 2))
     nominal_held = float(sel.nominal.unit_rss.sum())
@@ -202,7 +202,7 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
                     "relevant": sc.relevant, "units": int(len(sc.gains)),
                     "units_improved": float(np.mean(sc.gains > 0)), "scheme": ev.scheme,
                     "fold_params": [eff.params(s, np.zeros(len(ev.coef)), None) for s in ev.fold_shapes
-                                    if s is not None] if eff.grid(select.problem_scales(problem)) != [{}] else None,
+                                    if s is not None] if eff.grid(selection.problem_scales(problem)) != [{}] else None,
                     "chosen": name in chosen, "step": chosen.index(name) + 1 if name in chosen else None,
                     "shrink_after_chosen": later[-1].shrink if later and name not in chosen else None,
                     "grid": eff.grid_reason}
@@ -218,7 +218,7 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
         candidates.append(Candidate(
             effect=name, description=eff.description, params=params, gap_train=ev.rss_train / den,
             gap_heldout=float(ev.unit_rss.sum()) / den, shrink_heldout=sc.shrink,
-            shrink_interval=select.shrink_interval(sc.reference, ev.unit_rss, rng, level=level),
+            shrink_interval=selection.shrink_interval(sc.reference, ev.unit_rss, rng, level=level),
             evidence=evidence, stiffness_bias=bias))
     candidates.sort(key=lambda c: -c.shrink_heldout)
 
@@ -237,7 +237,7 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     after = {"effects": chosen, "gap_train": final.rss_train / den,
              "gap_heldout": float(final.unit_rss.sum()) / den,
              "shrink_heldout": 1.0 - float(final.unit_rss.sum()) / nominal_held if nominal_held > 0 else None,
-             "shrink_heldout_interval": list(select.shrink_interval(sel.nominal.unit_rss, final.unit_rss, rng,
+             "shrink_heldout_interval": list(selection.shrink_interval(sel.nominal.unit_rss, final.unit_rss, rng,
                                                                     level=level)),
              "params": {eff.name: eff.params(shape, coef, mech) for eff, shape, coef in fitted_all}}
     if any(e.local for e, _ in sel.chosen):
@@ -284,13 +284,13 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
                "folds": problem.n_folds, "guard_s": problem.guard_s if problem.scheme == "blocks" else 0.0,
                "units": problem.n_units, "unit_s": [lay.unit_s for lay in problem.layouts],
                "window_s": [lay.window_s for lay in problem.layouts]}
-    settings = {"alpha": select.ALPHA, "relevance": select.RELEVANCE, "permutations": select.PERMUTATIONS,
-                "bootstrap": select.BOOTSTRAP, "collinear": select.COLLINEAR, "ci_level": level,
+    settings = {"alpha": selection.ALPHA, "relevance": selection.RELEVANCE, "permutations": selection.PERMUTATIONS,
+                "bootstrap": selection.BOOTSTRAP, "collinear": selection.COLLINEAR, "ci_level": level,
                 "window_periods": nominal.WINDOW_PERIODS, "units_per_window": nominal.UNITS_PER_WINDOW,
                 "nuisance": list(nominal.NUISANCE), "test": "one-sided sign-flip test of the summed held-out gains "
                 "over units, Holm-corrected over the candidates of each step",
                 "relevance_reason": "an effect must remove at least this share of the nominal model's held-out "
-                                    "gap, at the step it is added (see limbstiff.diagnose.select.RELEVANCE)"}
+                                    "gap, at the step it is added (see limbstiff.diagnose.selection.RELEVANCE)"}
     warnings = [w for r in results for w in r.warnings]
     notes.insert(0, "gap: the nominal model fits nothing of its own but the elastic terms, which are refitted on "
                     "whatever is scored, so its held-out gap equals its in-sample gap"
@@ -309,7 +309,7 @@ def _notes(channels, problem, chosen) -> list[str]:
         notes.append("inertia and damping were identified from the trial(s): inertia_error and damping_error are "
                      "relative to the identified values, which absorb any such error; give the values the set-up "
                      "assumes (protocol [mechanics], --inertia/--damping) to test them")
-    rom = max(range_of_motion(c.angle[0]) for c in channels)
+    rom = max(range_of_motion(c.angle) for c in channels)
     half = 0.5 * rom
     curv = abs(1.0 - np.sin(half) / half) if half > 0 else 0.0
     notes.append(f"gravity: over the range of motion (±{half:.3g} rad) sin(y) departs from a straight line by "
@@ -363,9 +363,9 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     batch.NothingToDo
         When no trial file is found.
     """
-    from ..batch import discover, output_names
-    from ..io import read_trial
-    from ..io.outputs import write_json
+    from ..batch.discovery import discover, output_names
+    from ..files import read_trial
+    from ..files.outputs import write_json
 
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping)
     files = discover(paths)

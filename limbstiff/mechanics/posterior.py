@@ -1,9 +1,9 @@
 """Posterior of inertia, damping and the noise levels by emcee, with its quality checked.
 
-The likelihood is the Kalman model's exact one (:mod:`limbstiff.smoothing`). Parameters
+The likelihood is the Kalman model's exact one (:mod:`limbstiff.estimate.kalman`). Parameters
 θ = (m, b, ln R, ln Q_s, ln Q_σ): m and b carry the protocol's priors (default: flat on
 m, b > 0) and are integrated exactly given the noise levels; the log noise levels are flat
-within :func:`limbstiff.smoothing.noise_bounds` and sampled by emcee. The chain runs in blocks until it is at least
+within :func:`limbstiff.estimate.kalman.noise_bounds` and sampled by emcee. The chain runs in blocks until it is at least
 :data:`MIN_TAU_MULTIPLE` integrated autocorrelation times long (emcee's own estimator) or
 :data:`MAX_STEPS` is reached, in which case a warning says so.
 """
@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import smoothing
-from .protocol import Prior
+from ..estimate import kalman as smoothing
+from ..protocol import Prior
 
 #: The chain must be this many autocorrelation times long (emcee's recommendation: ≥ 50).
 MIN_TAU_MULTIPLE = 50
@@ -53,10 +53,15 @@ class McmcDiagnostics:
     converged: bool
     seed: int
 
+    @property
+    def chain_in_autocorr_times(self) -> float:
+        """Chain length over the longest autocorrelation time (≥ :data:`MIN_TAU_MULTIPLE` wanted)."""
+        return self.n_steps / max(self.autocorr_time.values())
+
     def to_dict(self) -> dict:
         return {"sampler": "emcee", "n_walkers": self.n_walkers, "n_steps": self.n_steps,
                 "burn_in": self.burn_in, "thin": self.thin, "autocorr_time": self.autocorr_time,
-                "chain_in_autocorr_times": self.n_steps / max(self.autocorr_time.values()),
+                "chain_in_autocorr_times": self.chain_in_autocorr_times,
                 "acceptance_fraction": self.acceptance_fraction, "converged": self.converged,
                 "seed": self.seed}
 
@@ -116,6 +121,24 @@ def log_prior(values: np.ndarray, prior: Prior) -> np.ndarray:
     return out
 
 
+def autocorr_time(chain: np.ndarray) -> np.ndarray:
+    """emcee's integrated autocorrelation time per parameter, in steps, however short the chain.
+
+    emcee raises :class:`emcee.autocorr.AutocorrError` on a chain shorter than 50 τ and carries
+    its estimate in ``.tau``; the length is judged by :func:`sample` (and said in its warnings),
+    so the estimate is taken either way.
+
+    Parameters
+    ----------
+    chain : ndarray, shape (n_steps, n_walkers, n_parameters)
+    """
+    from emcee.autocorr import AutocorrError, integrated_time
+    try:
+        return integrated_time(chain)
+    except AutocorrError as err:
+        return err.tau
+
+
 def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: np.random.Generator,
            seed: int) -> Posterior:
     """Posterior of (m, b) and the noise levels: emcee on the noise levels, m and b exactly.
@@ -141,8 +164,6 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     -------
     Posterior
     """
-    import logging
-
     import emcee
 
     lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
@@ -162,17 +183,12 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     sampler = emcee.EnsembleSampler(N_WALKERS, 3, log_prob, vectorize=True, moves=moves)
     sampler.random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
     state, steps, warnings = p0, 0, []
-    logger = logging.getLogger("emcee")
-    level, logger.level = logger.level, logging.ERROR        # its "chain too short" is ours to say
-    try:
-        while True:
-            state = sampler.run_mcmc(state, BLOCK_STEPS, progress=False)
-            steps += BLOCK_STEPS
-            tau = emcee.autocorr.integrated_time(sampler.get_chain(), quiet=True)
-            if steps >= MIN_TAU_MULTIPLE * np.max(tau) or steps >= MAX_STEPS:
-                break
-    finally:
-        logger.level = level
+    while True:
+        state = sampler.run_mcmc(state, BLOCK_STEPS, progress=False)
+        steps += BLOCK_STEPS
+        tau = autocorr_time(sampler.get_chain())
+        if steps >= MIN_TAU_MULTIPLE * np.max(tau) or steps >= MAX_STEPS:
+            break
     converged = bool(steps >= MIN_TAU_MULTIPLE * np.max(tau))
     if not converged:
         warnings.append(f"MCMC chain is only {steps / np.max(tau):.0f} autocorrelation times long "

@@ -24,13 +24,13 @@ class ColumnSpec(NamedTuple):
     Parameters
     ----------
     field : str
-        Trial field (see :data:`~limbstiff.io.units.FIELDS`).
+        Trial field (see :data:`~limbstiff.files.units.FIELDS`).
     header : str
         Column header (or variable name, or MAT path) in the file.
     index : int
         0-based position of that header in the list given to :func:`resolve_columns`.
     unit : str
-        Unit of the values in the file (a key of :data:`~limbstiff.io.units.UNITS`).
+        Unit of the values in the file (a key of :data:`~limbstiff.files.units.UNITS`).
     scale : float
         Factor applied after conversion to SI units.
     """

@@ -12,13 +12,13 @@ and the atomic-write helpers every output goes through.
 | ``columns.py`` | which column or variable fills which quantity, in which unit |
 | ``validate.py`` | the common checks: time, gaps, length, motion, resampling, SHA-256 |
 | ``units.py`` | the unit table and standard ``<quantity>_<unit>`` names |
-| ``csv.py`` | :func:`write_trial` |
+| ``trial_csv.py`` | :func:`write_trial` (the standard CSV) |
 """
 
 from __future__ import annotations
 
 from .atomic import atomic_output, atomic_write_bytes, atomic_write_text, sha256_file
-from .csv import write_trial
+from .trial_csv import write_trial
 from .read import EXTENSIONS, read_trial
 from .units import UNITS
 

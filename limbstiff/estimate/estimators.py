@@ -1,6 +1,6 @@
 """The three stiffness estimators behind ``--estimator``, on already-differentiated signals.
 
-* ``kalman`` (default): state-space model of :mod:`limbstiff.smoothing` — elastic torque and
+* ``kalman`` (default): state-space model of :mod:`limbstiff.estimate.kalman` — elastic torque and
   stiffness as states, ds = σ·dy, stiffness a random walk — filtered and RTS-smoothed, noise
   levels by maximum likelihood. No third derivative; gives a posterior variance per sample.
 * ``observer-smoothed``: the paper's observer run forwards and backwards in time and fused.
@@ -12,13 +12,14 @@ observability flag. Pure numpy: no I/O.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any, Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
-from . import observer, signals, smoothing
-from .protocol import ESTIMATORS  # noqa: F401  (the names, defined once with the protocol)
+from ..filtered import Filtered
+from ..protocol import ESTIMATORS  # noqa: F401  (the names, defined once with the protocol)
+from . import observer
+from .kalman import NoiseLevels, kalman_stiffness
 
 #: Kalman steps per period of the low-pass corner: 1.25 puts the step rate at 2.5× the corner,
 #: just above the Nyquist rate of the filtered band, so that the filtered noise is close to
@@ -30,24 +31,31 @@ KALMAN_STEPS_PER_CORNER_PERIOD = 1.25
 
 
 @dataclass(frozen=True)
-class Signals:
-    """What the estimators work on, filtered alike.
+class EstimatorFit:
+    """What an estimator derived from the data besides the stiffness.
 
     Parameters
     ----------
-    angle : ndarray, shape (4, n)
-        y, ẏ, ÿ, y⃛ in rad, rad/s, rad/s², rad/s³ (m… for translational trials).
-    torque : ndarray, shape (2, n)
-        f and ḟ (external torque for the external variant, elastic torque for the direct one).
-    sample_period : float, s
-    cutoff_hz : float or None
-        Low-pass corner used (None: none).
+    noise : NoiseLevels or None
+        The Kalman model's noise levels (``kalman``).
+    decimation : int or None
+        Samples per Kalman step (``kalman``).
+    loglik : float or None
+        Log-likelihood of the Kalman model at ``noise`` (``kalman``).
+    observer_gain : float or None, 1/rad (1/m)
+        α (the observers).
     """
 
-    angle: np.ndarray
-    torque: np.ndarray
-    sample_period: float
-    cutoff_hz: float | None
+    noise: NoiseLevels | None = None
+    decimation: int | None = None
+    loglik: float | None = None
+    observer_gain: float | None = None
+
+    def to_dict(self) -> dict:
+        """JSON-ready (``details.estimator`` of ``summary.json``)."""
+        if self.noise is not None:
+            return {"noise_levels": self.noise.to_dict(), "decimation": self.decimation, "loglik": self.loglik}
+        return {"observer_gain": self.observer_gain}
 
 
 @dataclass(frozen=True)
@@ -62,14 +70,13 @@ class Estimate:
     sensitivity : ndarray, shape (2, n), or None
         ∂σ̂/∂m and ∂σ̂/∂b (external variant): the estimate is affine in (m, b), so
         σ̂(m', b') = σ̂ + (m' − m)·sensitivity[0] + (b' − b)·sensitivity[1] exactly.
-    details : Mapping
-        Settings derived from the data (noise levels, decimation…).
+    fit : EstimatorFit
     """
 
     stiffness: np.ndarray
     variance: np.ndarray
     sensitivity: np.ndarray | None = None
-    details: Mapping[str, Any] = field(default_factory=dict)
+    fit: EstimatorFit = EstimatorFit()
 
     def variance_with(self, covariance: np.ndarray | None) -> np.ndarray:
         """Total variance once a covariance (2, 2) of (m, b) is carried through the sensitivity."""
@@ -80,39 +87,30 @@ class Estimate:
         return self.variance + c[0, 0] * g[0] ** 2 + 2 * c[0, 1] * g[0] * g[1] + c[1, 1] * g[1] ** 2
 
 
-def _elastic_measurement(sig: Signals, inertia: float, damping: float) -> np.ndarray:
-    """z = f − m·ÿ − b·ẏ: the torque left to the elastic element."""
-    y = sig.angle
-    return sig.torque[0] - inertia * y[2] - damping * y[1]
-
-
-def kalman_decimation(sig: Signals) -> int:
+def kalman_decimation(sample_period: float, cutoff_hz: float | None) -> int:
     """Samples per Kalman step: :data:`KALMAN_STEPS_PER_CORNER_PERIOD` steps per corner period."""
-    if sig.cutoff_hz is None:
+    if cutoff_hz is None:
         return 1
-    return max(1, int(1.0 / (sig.sample_period * KALMAN_STEPS_PER_CORNER_PERIOD * 2 * sig.cutoff_hz)))
+    return max(1, int(1.0 / (sample_period * KALMAN_STEPS_PER_CORNER_PERIOD * 2 * cutoff_hz)))
 
 
-def kalman(sig: Signals, *, motion_frequency: float, inertia: float | None = None,
-           damping: float | None = None, noise: smoothing.NoiseLevels | None = None) -> Estimate:
+def kalman(filtered: Filtered, *, inertia: float | None = None, damping: float | None = None,
+           noise: NoiseLevels | None = None) -> Estimate:
     """Kalman/RTS estimate; without ``inertia`` and ``damping`` the direct variant."""
     external = inertia is not None
-    measured = _elastic_measurement(sig, inertia, damping) if external else sig.torque[0]
-    regressors = (sig.angle[2], sig.angle[1]) if external else ()
-    decimation = kalman_decimation(sig)
-    edge = signals.edge_samples(1.0 / sig.sample_period, sig.cutoff_hz)
-    fit = smoothing.kalman_stiffness(sig.angle[0], measured, sample_period=sig.sample_period,
-                                     decimation=decimation, noise=noise, regressors=regressors,
-                                     motion_frequency=motion_frequency, scale_from=sig.torque[0], edge=edge)
-    return Estimate(fit.stiffness, fit.variance, -fit.responses if external else None,
-                    {"noise_levels": fit.noise.to_dict(), "decimation": decimation,
-                     "loglik": fit.loglik})
+    measured = filtered.elastic_torque(inertia, damping) if external else filtered.torque
+    regressors = (filtered.acceleration, filtered.velocity) if external else ()
+    decimation = kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
+    fit = kalman_stiffness(filtered.angle, measured, sample_period=filtered.sample_period, decimation=decimation,
+                           noise=noise, regressors=regressors, motion_frequency=filtered.motion_hz,
+                           scale_from=filtered.torque, edge=filtered.edge)
+    return Estimate(fit.stiffness, fit.variance, -fit.responses if external else None, 
+                    EstimatorFit(noise=fit.noise, decimation=decimation, loglik=fit.loglik))
 
 
-def _observer_pass(sig, drive, gain, threshold, discretisation, reverse):
-    velocity = sig.angle[1]
-    a, c = observer.recursion_coefficients(velocity, drive, observer_gain=gain,
-                                           sample_period=sig.sample_period,
+def _observer_pass(filtered, drive, gain, threshold, discretisation, reverse):
+    a, c = observer.recursion_coefficients(filtered.velocity, drive, observer_gain=gain,
+                                           sample_period=filtered.sample_period,
                                            discretisation=discretisation, velocity_threshold=threshold)
     # the residual e = r − σ̂·ẏ, seen through the same weights, gives the estimate's spread
     if reverse:
@@ -134,7 +132,7 @@ def _spread(a, ratio, est, reverse):
     return observer.linear_recursion(num_a, num_c)
 
 
-def observers(sig: Signals, *, smoothed: bool, gain: float, velocity_threshold: float,
+def observers(filtered: Filtered, *, smoothed: bool, gain: float, velocity_threshold: float,
               inertia: float | None = None, damping: float | None = None,
               discretisation: str = "exact") -> Estimate:
     """The paper's observer, causal or forwards–backwards fused.
@@ -143,25 +141,26 @@ def observers(sig: Signals, *, smoothed: bool, gain: float, velocity_threshold: 
     r/ẏ that the exact step computes (weights 1 − a), times the number of samples per
     low-pass correlation length, since neighbouring ratios share their noise.
     """
-    y = sig.angle
+    v = filtered.velocity
     external = inertia is not None
-    drive = sig.torque[1] - inertia * y[3] - damping * y[2] if external else sig.torque[1]
+    drive = (observer.external_drive(filtered.torque_rate, filtered.acceleration, filtered.jerk, inertia=inertia,
+                                     damping=damping) if external else filtered.torque_rate)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(np.abs(y[1]) > velocity_threshold, drive / y[1], 0.0)
-    fs = 1.0 / sig.sample_period
-    correlated = 1.0 if sig.cutoff_hz is None else max(1.0, fs / (2 * sig.cutoff_hz))
-    fwd, a = _observer_pass(sig, drive, gain, velocity_threshold, discretisation, reverse=False)
+        ratio = np.where(np.abs(v) > velocity_threshold, drive / v, 0.0)
+    correlated = 1.0 if filtered.cutoff_hz is None else max(1.0, filtered.fs / (2 * filtered.cutoff_hz))
+    args = (gain, velocity_threshold, discretisation)
+    fwd, a = _observer_pass(filtered, drive, *args, reverse=False)
     var_f = _spread(a, ratio, fwd, reverse=False) * correlated
     # the affine parts (ARCHITECTURE fact 2): the same recursion fed −y⃛ and −ÿ
-    sens_f = np.vstack([_observer_pass(sig, -y[j], gain, velocity_threshold, discretisation, False)[0]
-                        for j in (3, 2)]) if external else None
+    sens_f = np.vstack([_observer_pass(filtered, -x, *args, False)[0]
+                        for x in (filtered.jerk, filtered.acceleration)]) if external else None
     if not smoothed:
-        return Estimate(fwd, var_f, sens_f, {"observer_gain": gain})
-    bwd, _ = _observer_pass(sig, drive, gain, velocity_threshold, discretisation, reverse=True)
+        return Estimate(fwd, var_f, sens_f, EstimatorFit(observer_gain=gain))
+    bwd, _ = _observer_pass(filtered, drive, *args, reverse=True)
     var_b = _spread(a, ratio, bwd, reverse=True) * correlated
     # weights: how far the information before (forwards) or after (backwards) each sample has
     # replaced the initial guess, 1 − exp(−α·path), by (8)
-    speed = np.where(np.abs(y[1]) > velocity_threshold, np.abs(y[1]), 0.0) * sig.sample_period
+    speed = np.where(np.abs(v) > velocity_threshold, np.abs(v), 0.0) * filtered.sample_period
     path = np.cumsum(speed)
     w_f = -np.expm1(-gain * path) + 1e-12
     w_b = -np.expm1(-gain * (path[-1] - path + speed)) + 1e-12
@@ -170,7 +169,7 @@ def observers(sig: Signals, *, smoothed: bool, gain: float, velocity_threshold: 
         w_f * w_b * (fwd - bwd) ** 2 / (w_f + w_b) ** 2
     sens = None
     if external:
-        sens_b = np.vstack([_observer_pass(sig, -y[j], gain, velocity_threshold, discretisation, True)[0]
-                            for j in (3, 2)])
+        sens_b = np.vstack([_observer_pass(filtered, -x, *args, True)[0]
+                            for x in (filtered.jerk, filtered.acceleration)])
         sens = (w_f * sens_f + w_b * sens_b) / (w_f + w_b)
-    return Estimate(fused, var, sens, {"observer_gain": gain})
+    return Estimate(fused, var, sens, EstimatorFit(observer_gain=gain))

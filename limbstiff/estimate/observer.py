@@ -15,8 +15,8 @@ and r = ḟ). The law is linear in σ̂, so over each sample it is a first-order
   α·|ẏ|·Ts > 2; kept to compare with.
 
 Where ẏ = 0 (or below the velocity noise level) a = 1 and c = 0: the estimate is held.
-Pure numpy (the recursion is compiled in :mod:`limbstiff.kernels`, or a blocked NumPy scan
-in :mod:`limbstiff.scan` without numba): no I/O.
+Pure numpy (the recursion is compiled in :mod:`limbstiff.estimate.kernels`, or a blocked NumPy scan
+in :mod:`limbstiff.estimate.scan` without numba): no I/O.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Pure functions, no I/O. A standard header is ``<quantity>_<unit>`` (``time_ms``,
 ``angle_deg``, ``stiffness_true_Nm_per_rad``); :func:`parse_standard_header` splits it,
 :func:`to_si` converts a column to SI units. Only the units listed in :data:`UNITS` are
 accepted: there is no guessing, so a misspelt unit is an error rather than a wrong number.
-Which column of a file fills which quantity is decided in :mod:`limbstiff.io.columns`.
+Which column of a file fills which quantity is decided in :mod:`limbstiff.files.columns`.
 """
 
 from __future__ import annotations

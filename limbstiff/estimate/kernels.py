@@ -7,10 +7,11 @@ environment variable ``LIMBSTIFF_NO_JIT=1``, the same source runs in CPython. Th
 (``<kernel>.py_func`` when compiled) is what the tests compare the compiled code against.
 
 Kernels: the first-order linear recursion of the observer (alone, and fused with its
-coefficients), the two-state Kalman filter
-(log-likelihood only, or with its moments), the Rauch–Tung–Striebel smoother, and the
-filter pass over several measurement channels whose likelihood is quadratic in their weights
-(inertia and damping, :mod:`limbstiff.identify`).
+coefficients); the two-state Kalman model's covariance step, written once (:func:`_predict`,
+:func:`_update`) and used by the filter (log-likelihood only, or with its moments), the
+Rauch–Tung–Striebel smoother (in place) and the filter pass over several measurement channels
+whose likelihood is quadratic in their weights (inertia and damping,
+:mod:`limbstiff.mechanics.likelihood`).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ def linear_recursion(a, c, initial):
 
 def observer_pass(velocity, drive, gain_step, threshold, exact, initial):
     """Update law (7) in one loop: the coefficients of
-    :func:`limbstiff.observer.recursion_coefficients` computed on the fly, then
+    :func:`limbstiff.estimate.observer.recursion_coefficients` computed on the fly, then
     x[k] = a[k]·x[k−1] + c[k]. ``gain_step`` is α·Ts; returns σ̂, shape (n,)."""
     n = velocity.shape[0]
     out = np.empty(n)
@@ -53,81 +54,96 @@ def observer_pass(velocity, drive, gain_step, threshold, exact, initial):
     return out
 
 
+def _predict(p11, p12, p22, di, qs, qk):
+    """Covariance [p11, p12, p22] of the state [s, σ] one step ahead: F·P·Fᵀ + Q with
+    F = [[1, di], [0, 1]] (ds = σ·dy) and Q = diag(qs, qk)."""
+    return p11 + 2.0 * di * p12 + di * di * p22 + qs, p12 + di * p22, p22 + qk
+
+
+def _update(p11, p12, p22, r):
+    """Measurement update of z = s + v, var(v) = r: the innovation variance S, the gains of s
+    and σ, and the updated covariance."""
+    sv = p11 + r
+    g1 = p11 / sv
+    g2 = p12 / sv
+    return sv, g1, g2, p11 - g1 * p11, p12 - g1 * p12, p22 - g2 * p12
+
+
 def kalman_loglik(d, z, r, qs, qk, s, k, p11, p12, p22):
-    """Log-likelihood of the model of :mod:`limbstiff.smoothing` (the filter pass of
-    :func:`kalman_moments`, moments discarded)."""
-    return kalman_moments(d, z, r, qs, qk, s, k, p11, p12, p22)[4]
-
-
-def kalman_moments(d, z, r, qs, qk, s, k, p11, p12, p22):
-    """Filter pass keeping the filtered and predicted moments.
-
-    Returns
-    -------
-    fm, fc, pm, pc : ndarray, shapes (n, 2), (n, 3), (n, 2), (n, 3)
-        Filtered mean [s, σ], covariance [p11, p12, p22], and the same predicted.
-    loglik : float
-    """
+    """Log-likelihood of the model of :mod:`limbstiff.estimate.kalman` (prediction-error
+    decomposition); the filter pass of :func:`kalman_filter` keeping no moments."""
     n = z.shape[0]
-    fm = np.empty((n, 2))
-    fc = np.empty((n, 3))
-    pm = np.empty((n, 2))
-    pc = np.empty((n, 3))
     loglik = 0.0
     log2pi = math.log(2.0 * math.pi)
     for i in range(n):
         if i > 0:
-            di = d[i]
-            s = s + k * di
-            p11 = p11 + 2.0 * di * p12 + di * di * p22 + qs
-            p12 = p12 + di * p22
-            p22 = p22 + qk
-        pm[i, 0] = s
-        pm[i, 1] = k
-        pc[i, 0] = p11
-        pc[i, 1] = p12
-        pc[i, 2] = p22
-        sv = p11 + r
+            s = s + k * d[i]
+            p11, p12, p22 = _predict(p11, p12, p22, d[i], qs, qk)
+        sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, r)
         e = z[i] - s
-        g1 = p11 / sv
-        g2 = p12 / sv
         s = s + g1 * e
         k = k + g2 * e
-        p22 = p22 - g2 * p12
-        p12 = p12 - g1 * p12
-        p11 = p11 - g1 * p11
         loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
-        fm[i, 0] = s
-        fm[i, 1] = k
-        fc[i, 0] = p11
-        fc[i, 1] = p12
-        fc[i, 2] = p22
-    return fm, fc, pm, pc, loglik
+    return loglik
 
 
-def rts_smoother(d, fm, fc, pm, pc):
-    """Rauch–Tung–Striebel pass; returns smoothed mean (n, 2) and covariance (n, 3)."""
-    n = fm.shape[0]
-    sm = np.empty((n, 2))
-    sc = np.empty((n, 3))
-    s1 = fm[n - 1, 0]
-    k1 = fm[n - 1, 1]
-    a11 = fc[n - 1, 0]
-    a12 = fc[n - 1, 1]
-    a22 = fc[n - 1, 2]
-    sm[n - 1, 0] = s1
-    sm[n - 1, 1] = k1
-    sc[n - 1, 0] = a11
-    sc[n - 1, 1] = a12
-    sc[n - 1, 2] = a22
+def kalman_filter(d, z, r, qs, qk, s, k, p11, p12, p22, with_loglik):
+    """Filter pass keeping the filtered moments (the predicted ones are recomputed by
+    :func:`rts_smoother`, which halves the memory written per step).
+
+    Returns
+    -------
+    mean : ndarray, shape (n, 2)
+        Filtered [s, σ].
+    cov : ndarray, shape (n, 3)
+        Filtered [p11, p12, p22].
+    loglik : float
+        Log-likelihood (0 unless ``with_loglik``: the logarithm is most of a step's cost).
+    """
+    n = z.shape[0]
+    mean = np.empty((n, 2))
+    cov = np.empty((n, 3))
+    loglik = 0.0
+    log2pi = math.log(2.0 * math.pi)
+    for i in range(n):
+        if i > 0:
+            s = s + k * d[i]
+            p11, p12, p22 = _predict(p11, p12, p22, d[i], qs, qk)
+        sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, r)
+        e = z[i] - s
+        s = s + g1 * e
+        k = k + g2 * e
+        if with_loglik:
+            loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
+        mean[i, 0] = s
+        mean[i, 1] = k
+        cov[i, 0] = p11
+        cov[i, 1] = p12
+        cov[i, 2] = p22
+    return mean, cov, loglik
+
+
+def rts_smoother(d, mean, cov, qs, qk):
+    """Rauch–Tung–Striebel pass, in place: ``mean`` (n, 2) and ``cov`` (n, 3) hold the filtered
+    moments of :func:`kalman_filter` on entry and the smoothed ones on return.
+
+    The predicted moments of step i + 1 are recomputed from the filtered ones of step i by the
+    same expressions as the filter's, so the result equals a pass over stored ones exactly.
+    """
+    n = mean.shape[0]
+    s1 = mean[n - 1, 0]
+    k1 = mean[n - 1, 1]
+    a11 = cov[n - 1, 0]
+    a12 = cov[n - 1, 1]
+    a22 = cov[n - 1, 2]
     for i in range(n - 2, -1, -1):
         di = d[i + 1]
-        f11 = fc[i, 0]
-        f12 = fc[i, 1]
-        f22 = fc[i, 2]
-        q11 = pc[i + 1, 0]
-        q12 = pc[i + 1, 1]
-        q22 = pc[i + 1, 2]
+        f11 = cov[i, 0]
+        f12 = cov[i, 1]
+        f22 = cov[i, 2]
+        fs = mean[i, 0]
+        fk = mean[i, 1]
+        q11, q12, q22 = _predict(f11, f12, f22, di, qs, qk)
         # gain C = P_f·Fᵀ·(P⁻)⁻¹ with F = [[1, d], [0, 1]]
         b11 = f11 + di * f12
         b12 = f12
@@ -141,10 +157,10 @@ def rts_smoother(d, fm, fc, pm, pc):
         c12 = b11 * i12 + b12 * i22
         c21 = b21 * i11 + b22 * i12
         c22 = b21 * i12 + b22 * i22
-        e1 = s1 - pm[i + 1, 0]
-        e2 = k1 - pm[i + 1, 1]
-        s1 = fm[i, 0] + c11 * e1 + c12 * e2
-        k1 = fm[i, 1] + c21 * e1 + c22 * e2
+        e1 = s1 - (fs + fk * di)
+        e2 = k1 - fk
+        s1 = fs + c11 * e1 + c12 * e2
+        k1 = fk + c21 * e1 + c22 * e2
         m11 = a11 - q11
         m12 = a12 - q12
         m22 = a22 - q22
@@ -156,12 +172,12 @@ def rts_smoother(d, fm, fc, pm, pc):
         a11 = f11 + t11 * c11 + t12 * c12
         a12 = f12 + t11 * c21 + t12 * c22
         a22 = f22 + t21 * c21 + t22 * c22
-        sm[i, 0] = s1
-        sm[i, 1] = k1
-        sc[i, 0] = a11
-        sc[i, 1] = a12
-        sc[i, 2] = a22
-    return sm, sc
+        mean[i, 0] = s1
+        mean[i, 1] = k1
+        cov[i, 0] = a11
+        cov[i, 1] = a12
+        cov[i, 2] = a22
+    return mean, cov
 
 
 def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
@@ -210,12 +226,8 @@ def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
             di = d[i]
             for c in range(nc):
                 s[c] += sig[c] * di
-            a11 = a11 + 2.0 * di * a12 + di * di * a22 + qs
-            a12 = a12 + di * a22
-            a22 = a22 + qk
-        sv = a11 + r
-        g1 = a11 / sv
-        g2 = a12 / sv
+            a11, a12, a22 = _predict(a11, a12, a22, di, qs, qk)
+        sv, g1, g2, a11, a12, a22 = _update(a11, a12, a22, r)
         for c in range(nc):
             e[c] = chans[c, i] - s[c]
             s[c] += g1 * e[c]
@@ -223,9 +235,6 @@ def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
         for c in range(nc):
             for c2 in range(nc):
                 a[c, c2] += e[c] * e[c2] / sv
-        a22 = a22 - g2 * a12
-        a12 = a12 - g1 * a12
-        a11 = a11 - g1 * a11
         sum_log_s += math.log(sv)
     return sum_log_s, a
 
@@ -261,8 +270,8 @@ def _compile():
         return False
     g = globals()
     # callees first, so that the compiled callers call compiled code
-    for name in ("linear_recursion", "observer_pass", "kalman_moments", "kalman_loglik", "rts_smoother", "kalman_quadratic",
-                 "marginal_loglik"):
+    for name in ("_predict", "_update", "linear_recursion", "observer_pass", "kalman_filter", "kalman_loglik",
+                 "rts_smoother", "kalman_quadratic", "marginal_loglik"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True
 

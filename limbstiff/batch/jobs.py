@@ -1,4 +1,4 @@
-"""From trial files to output folders: the library call behind ``limbstiff analyze``.
+"""From trial files to output folders: the library calls behind ``limbstiff analyze`` and ``identify``.
 
 :func:`analyze_files` discovers the trials, analyses each (in parallel processes when asked),
 writes every trial's outputs and the run's ``summary.csv``, and returns the outcomes. The
@@ -15,9 +15,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
-from . import batch
-from .errors import LimbstiffError
-from .protocol import Protocol
+from .discovery import discover, output_names
+from .runner import BatchJob, TrialOutcome, run_jobs, run_one
+from .table import up_to_date, write_summary_csv
+from ..errors import LimbstiffError
+from ..protocol import Protocol
 
 SUMMARY_CSV = "summary.csv"
 OVERVIEW_PDF = "overview.pdf"
@@ -29,7 +31,7 @@ class BatchReport:
 
     Parameters
     ----------
-    outcomes : tuple of batch.TrialOutcome
+    outcomes : tuple of TrialOutcome
         One per trial, in input order.
     out : Path
         Output folder.
@@ -57,15 +59,15 @@ def run_fingerprint(protocol: Protocol, *, seed: int, reference=None) -> str:
     The resolved settings, the seed, the reference curve and limbstiff's version: a trial
     whose ``summary.json`` records this fingerprint and its input's SHA-256 is up to date.
     """
-    from . import __version__
-    from .result import _jsonable
+    from .. import __version__
+    from ..result import _jsonable
 
     key = {"settings": _jsonable(protocol.to_dict()), "seed": seed, "version": __version__,
            "reference": None if reference is None else _jsonable(reference.to_dict())}
     return hashlib.sha256(json.dumps(key, sort_keys=True, default=str).encode("utf-8")).hexdigest()
 
 
-def _clear_or_refuse(job: batch.BatchJob, marker: str) -> None:
+def _clear_or_refuse(job: BatchJob, marker: str) -> None:
     """Refuse to replace complete outputs without ``--overwrite``; with it, remove ``marker``
     first, so that the folder reads as incomplete until the new outputs are all written."""
     if not (job.out / marker).exists():
@@ -78,17 +80,17 @@ def _clear_or_refuse(job: batch.BatchJob, marker: str) -> None:
     (job.out / marker).unlink()
 
 
-def _analyse_and_write(job: batch.BatchJob) -> dict:
+def _analyse_and_write(job: BatchJob) -> dict:
     """Read, analyse and write one trial (runs in a worker process)."""
-    from .analysis import analyze
-    from .io import read_trial
-    from .io.atomic import sha256_file
-    from .io.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON, write_result
+    from ..analysis import analyze
+    from ..files import read_trial
+    from ..files.atomic import sha256_file
+    from ..files.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON, write_result
 
     opts = job.options
     files = [STIFFNESS_CSV, SUMMARY_JSON] + ([REPORT_PDF] if opts["pdf"] else [])
     if opts.get("resume"):
-        done = batch.up_to_date(job.out, source_sha256=sha256_file(job.source), run_sha256=opts["run_sha256"],
+        done = up_to_date(job.out, source_sha256=sha256_file(job.source), run_sha256=opts["run_sha256"],
                                 files=files)
         if done is not None:
             return dict(done, resumed=True)
@@ -102,7 +104,7 @@ def _analyse_and_write(job: batch.BatchJob) -> dict:
         reference = opts["reference"].stiffness(trial.angle)
     result = analyze(trial, protocol, seed=opts["seed"], reference=reference)
     if opts["pdf"]:
-        from .report import write_report
+        from ..report import write_report
         write_report(result, job.out / REPORT_PDF)
     return write_result(result, job.out, extra={"output": str(job.out), "files": files,
                                                 "run_sha256": opts["run_sha256"]})
@@ -111,48 +113,49 @@ def _analyse_and_write(job: batch.BatchJob) -> dict:
 def _run(paths, work, options, *, out, jobs, progress) -> BatchReport:
     """Discover the trials, run ``work`` on each (one failure never stops the others), and keep
     ``summary.csv`` current after every finished trial, so an interrupted run leaves it true."""
-    files = batch.discover(paths)
-    names, notes = batch.output_names(files)
+    files = discover(paths)
+    names, notes = output_names(files)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs_list = [batch.BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
-    finished: dict[str, batch.TrialOutcome] = {}
+    jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
+    finished: dict[str, TrialOutcome] = {}
 
     def record(outcome, done, total):
         finished[outcome.trial] = outcome
-        batch.write_summary_csv(out / SUMMARY_CSV, [finished[n] for n in names if n in finished])
+        write_summary_csv(out / SUMMARY_CSV, [finished[n] for n in names if n in finished])
         if progress:
             progress(outcome, done, total)
 
-    outcomes = batch.run_jobs(jobs_list, functools.partial(batch.run_one, analyse_and_write=work),
+    outcomes = run_jobs(jobs_list, functools.partial(run_one, analyse_and_write=work),
                               n_jobs=jobs, progress=record)
-    batch.write_summary_csv(out / SUMMARY_CSV, outcomes)
+    write_summary_csv(out / SUMMARY_CSV, outcomes)
     return BatchReport(outcomes=tuple(outcomes), out=out, notes=tuple(notes))
 
 
-def _identify_and_write(job: batch.BatchJob) -> dict:
+def _identify_and_write(job: BatchJob) -> dict:
     """Read one trial, identify m and b, write posterior.json and draws.csv (worker process)."""
-    from .analysis import identify_trial
-    from .io import read_trial
-    from .io.atomic import atomic_write_text
-    from .io.outputs import write_json
-    from .result import _jsonable
+    from ..analysis import identification_summary, identify_trial
+    from ..files import read_trial
+    from ..files.atomic import atomic_write_text
+    from ..files.outputs import write_json
+    from ..result import _jsonable
 
     opts = job.options
     _clear_or_refuse(job, "posterior.json")
     trial = read_trial(job.source, opts["protocol"], name=job.name)
-    out = identify_trial(trial, opts["protocol"], seed=opts["seed"])
+    ident = identify_trial(trial, opts["protocol"], seed=opts["seed"])
     job.out.mkdir(parents=True, exist_ok=True)
-    if out["posterior"] is not None:
-        atomic_write_text(job.out / "draws.csv", out["posterior"].to_frame().to_csv(index=False, float_format="%.10g"))
-    summary = _jsonable(dict(out["summary"], output=str(job.out)))
+    if ident.posterior is not None:
+        atomic_write_text(job.out / "draws.csv", ident.posterior.to_frame().to_csv(index=False, float_format="%.10g"))
+    summary = identification_summary(trial, ident, ci_level=opts["protocol"].ci_level, seed=opts["seed"])
+    summary = _jsonable(dict(summary, output=str(job.out)))
     write_json(job.out / "posterior.json", summary)
     return summary
 
 
 def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-identify",
                    jobs: int = 1, seed: int = 0, overwrite: bool = False,
-                   progress: Callable[[batch.TrialOutcome, int, int], None] | None = None) -> BatchReport:
+                   progress: Callable[[TrialOutcome, int, int], None] | None = None) -> BatchReport:
     """Identify inertia and damping of every trial named by ``paths`` (``limbstiff identify``).
 
     Writes ``OUT/<trial>/posterior.json`` (intervals, noise levels, MCMC diagnostics),
@@ -165,7 +168,7 @@ def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
 def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",
                   jobs: int = 1, seed: int = 0, pdf: bool = True, overwrite: bool = False,
                   resume: bool = False, reference=None, sort_by: Sequence[str] = (),
-                  progress: Callable[[batch.TrialOutcome, int, int], None] | None = None) -> BatchReport:
+                  progress: Callable[[TrialOutcome, int, int], None] | None = None) -> BatchReport:
     """Analyse every trial named by ``paths`` and write the outputs of INTERFACE.md section 4.
 
     Parameters
@@ -200,7 +203,7 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
 
     Raises
     ------
-    batch.NothingToDo
+    discovery.NothingToDo
         When no trial file is found.
     """
     protocol = protocol or Protocol()
@@ -214,7 +217,7 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
 
 def _overview(report: BatchReport, protocol: Protocol, sort_by: Sequence[str]) -> BatchReport:
     """Write ``overview.pdf``; a failure here is a note, never a lost batch."""
-    from .report import write_batch_overview
+    from ..report import write_batch_overview
 
     rows = [o.row if o.status == "ok" else {"trial": o.trial, "status": "failed", "error": o.error}
             for o in report.outcomes]
@@ -231,7 +234,7 @@ def check_reference(path: str | Path):
     """Read a calibration JSON written by ``limbstiff calibrate``."""
     import json
 
-    from .calibrate import SpringCalibration
+    from ..calibrate import SpringCalibration
     try:
         return SpringCalibration.from_dict(json.loads(Path(path).read_text(encoding="utf-8")))
     except FileNotFoundError:

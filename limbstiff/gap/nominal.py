@@ -61,8 +61,8 @@ METRIC = ("variance not accounted for: sum of squared residuals over the sum of 
 
 def effective_cutoff(ch: Channels) -> float:
     """Corner of the filter chain, Hz (the paper chain's prefilter 1/(2πτ); Nyquist when unfiltered)."""
-    if ch.chain == "paper":
-        return 1.0 / (2 * np.pi * ch.prefilter_time_constant)
+    if ch.chain.kind == "paper":
+        return 1.0 / (2 * np.pi * ch.chain.prefilter_time_constant)
     return ch.cutoff_hz if ch.cutoff_hz is not None else 0.5 * ch.fs
 
 
@@ -258,8 +258,8 @@ def gap(residual: np.ndarray, deviation: np.ndarray) -> float:
 def filter_power(freq: np.ndarray, ch: Channels) -> np.ndarray:
     """|H(f)|² of the chain the channels went through (zero-phase Butterworth of order 4 run
     twice, or the paper's prefilter 1/(τs + 1)²)."""
-    if ch.chain == "paper":
-        w = 2 * np.pi * freq * ch.prefilter_time_constant
+    if ch.chain.kind == "paper":
+        w = 2 * np.pi * freq * ch.chain.prefilter_time_constant
         return 1.0 / (1.0 + w ** 2) ** 2
     if ch.cutoff_hz is None:
         return np.ones_like(freq)

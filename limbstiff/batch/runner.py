@@ -1,0 +1,78 @@
+"""Running the trials of a batch: one at a time or in parallel, one failure never stopping the others.
+
+Each trial's error becomes a ``failed`` outcome with a one-line reason (a row of
+``summary.csv``). Standard library (and the package) only.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+from ..errors import LimbstiffError
+
+
+@dataclass(frozen=True)
+class TrialOutcome:
+    """What happened to one trial of a batch (one row of ``summary.csv``)."""
+
+    trial: str
+    source: str
+    status: str
+    error: str = ""
+    row: dict = field(default_factory=dict)
+    resumed: bool = False
+
+
+@dataclass(frozen=True)
+class BatchJob:
+    """Everything a worker needs to analyse one trial (picklable)."""
+
+    source: Path
+    name: str
+    out: Path
+    options: dict
+
+
+def run_one(job: BatchJob, analyse_and_write: Callable[[BatchJob], dict]) -> TrialOutcome:
+    """Run one trial, turning any failure into a ``failed`` outcome with a one-line reason."""
+    try:
+        summary = analyse_and_write(job)
+    except LimbstiffError as exc:
+        return TrialOutcome(job.name, str(job.source), "failed", _one_line(str(exc)))
+    except MemoryError:
+        return TrialOutcome(job.name, str(job.source), "failed", f"{job.source}: out of memory")
+    except Exception as exc:  # noqa: BLE001 - a batch must survive any one trial
+        return TrialOutcome(job.name, str(job.source), "failed",
+                            _one_line(f"{job.source}: internal error ({type(exc).__name__}: {exc})"))
+    resumed = bool(summary.pop("resumed", False))
+    return TrialOutcome(job.name, str(job.source), "ok", "", summary, resumed)
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome], *, n_jobs: int = 1,
+             progress: Callable[[TrialOutcome, int, int], None] | None = None) -> list[TrialOutcome]:
+    """Run ``worker`` on every job, serially or in ``n_jobs`` processes, in input order."""
+    outcomes: list[TrialOutcome | None] = [None] * len(jobs)
+    if n_jobs <= 1 or len(jobs) <= 1:
+        for i, job in enumerate(jobs):
+            outcomes[i] = worker(job)
+            if progress:
+                progress(outcomes[i], i + 1, len(jobs))
+    else:
+        pool = ProcessPoolExecutor(max_workers=n_jobs)
+        try:
+            futures = {pool.submit(worker, job): i for i, job in enumerate(jobs)}
+            for done, fut in enumerate(as_completed(futures), start=1):
+                outcomes[futures[fut]] = fut.result()
+                if progress:
+                    progress(outcomes[futures[fut]], done, len(jobs))
+        finally:
+            # on Ctrl-C, trials not yet started are dropped; finished ones are complete on disk
+            pool.shutdown(wait=True, cancel_futures=True)
+    return [o for o in outcomes if o is not None]

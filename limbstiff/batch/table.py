@@ -1,0 +1,76 @@
+"""The batch's table, ``summary.csv``, and the test of whether a trial's outputs are current.
+
+Standard library only.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from io import StringIO
+from pathlib import Path
+from typing import Iterable, Sequence
+
+from ..files.atomic import atomic_write_text
+from ..files.outputs import SUMMARY_JSON
+from .runner import TrialOutcome
+
+SUMMARY_COLUMNS = ("trial", "status", "error", "source", "variant", "stiffness_median", "stiffness_lo",
+                   "stiffness_hi", "inertia_median", "damping_median", "observable_fraction", "resumed",
+                   "output")
+#: Prefix of the ``summary.csv`` columns that carry each trial's metadata (``# key: value`` lines).
+METADATA_PREFIX = "meta."
+
+
+def summary_row(outcome: TrialOutcome) -> dict:
+    """The ``summary.csv`` row of one outcome."""
+    s = outcome.row
+    stiff = s.get("stiffness") or {}
+    return {
+        "trial": outcome.trial, "status": outcome.status, "error": outcome.error,
+        "source": outcome.source, "variant": s.get("variant", ""),
+        "stiffness_median": stiff.get("median", ""), "stiffness_lo": stiff.get("lo", ""),
+        "stiffness_hi": stiff.get("hi", ""),
+        "inertia_median": (s.get("inertia") or {}).get("median", ""),
+        "damping_median": (s.get("damping") or {}).get("median", ""),
+        "observable_fraction": s.get("observable_fraction", ""),
+        "resumed": int(outcome.resumed) if outcome.status == "ok" else "",
+        "output": s.get("output", ""),
+        **{METADATA_PREFIX + str(k): v for k, v in (s.get("metadata") or {}).items()},
+    }
+
+
+def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome]) -> None:
+    """Write ``summary.csv``, one row per trial, atomically.
+
+    The fixed columns (:data:`SUMMARY_COLUMNS`) come first, then one ``meta.<key>`` column per
+    metadata key found in any trial (empty where a trial lacks it), so a spreadsheet can sort
+    and group the trials by subject, condition….
+    """
+    rows = [summary_row(o) for o in outcomes]
+    meta = sorted({k for r in rows for k in r if k.startswith(METADATA_PREFIX)})
+    buf = StringIO()
+    writer = csv.DictWriter(buf, fieldnames=[*SUMMARY_COLUMNS, *meta], lineterminator="\n", restval="")
+    writer.writeheader()
+    writer.writerows(rows)
+    atomic_write_text(path, buf.getvalue())
+
+
+def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: Iterable[str]) -> dict | None:
+    """The existing summary of a trial whose outputs need not be made again, or None.
+
+    They need not when ``summary.json`` (written last, so present only for a complete trial)
+    records the same input SHA-256 and the same run fingerprint (settings, seed, reference,
+    version), and every file in ``files`` is there.
+    """
+    try:
+        summary = json.loads((directory / SUMMARY_JSON).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(summary, dict):
+        return None
+    if summary.get("source_sha256") != source_sha256 or summary.get("run_sha256") != run_sha256:
+        return None
+    if not all((directory / f).is_file() for f in files):
+        return None
+    return summary

@@ -1,0 +1,180 @@
+"""The signals of one trial as the diagnosis sees them: the analysis's own filtered signals.
+
+A :class:`Channels` holds the trial's :class:`~limbstiff.filtered.Filtered` signals (the same
+object the stiffness analysis estimated from: no second filtering), the angle, its first two
+derivatives and the torque (replaced by corrected ones when an effect corrects a recorded
+channel), the inertia and damping the analysis used and its stiffness course. Every unmodelled
+torque a candidate effect adds is passed through the same filter chain
+(:meth:`Channels.lowpass`) so that it is compared with the recorded torque on equal terms. Pure
+numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..filtered import FilterChain, Filtered
+from ..trial import Trial
+
+
+@dataclass(frozen=True)
+class Channels:
+    """Filtered signals of one trial and the nominal model the stiffness analysis used.
+
+    Parameters
+    ----------
+    name : str
+        Trial name.
+    time : ndarray, shape (n,), s
+    filtered : Filtered
+        The analysis's filtered signals and what was chosen from the data (chain, noise levels).
+    angle, velocity, acceleration : ndarray, shape (n,)
+        y, ẏ, ÿ (rad, rad/s, rad/s²; m… for translational): the filtered ones, or corrected ones.
+    torque : ndarray, shape (n,), N·m (N)
+        The torque the model predicts (external, or elastic for the direct variant), filtered.
+    raw_angle, raw_torque : ndarray, shape (n,)
+        As recorded (SI units).
+    inertia, damping : float
+        m (kg·m²) and b (N·m·s/rad) of the nominal model (0 for the direct variant).
+    mechanics : str
+        ``"given"`` (protocol or command line), ``"identified"`` (from this trial) or
+        ``"none"`` (direct variant).
+    stiffness : ndarray, shape (n,), N·m/rad
+        The stiffness course the analysis estimated.
+    observable : ndarray of bool, shape (n,)
+    """
+
+    name: str
+    time: np.ndarray
+    filtered: Filtered
+    angle: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    torque: np.ndarray
+    raw_angle: np.ndarray
+    raw_torque: np.ndarray
+    inertia: float
+    damping: float
+    mechanics: str
+    stiffness: np.ndarray
+    observable: np.ndarray
+
+    @property
+    def chain(self) -> FilterChain:
+        return self.filtered.chain
+
+    @property
+    def fs(self) -> float:
+        return self.filtered.fs
+
+    @property
+    def cutoff_hz(self) -> float | None:
+        return self.filtered.cutoff_hz
+
+    @property
+    def edge(self) -> int:
+        return self.filtered.edge
+
+    @property
+    def motion_hz(self) -> float:
+        return self.filtered.motion_hz
+
+    @property
+    def velocity_noise(self) -> float:
+        return self.filtered.velocity_noise
+
+    @property
+    def quantisation_step(self) -> float:
+        """Encoder step of the recorded angle, rad (0 when continuous)."""
+        return self.filtered.bandwidth.quantisation_step
+
+    @property
+    def angle_noise(self) -> float:
+        """Standard deviation of the white noise on the recorded angle, rad."""
+        return self.filtered.angle_noise
+
+    @property
+    def angle_resolution(self) -> float:
+        return self.filtered.angle_resolution
+
+    @property
+    def torque_floor(self) -> float:
+        """One-sided spectral floor of the recorded torque, (N·m)²/Hz."""
+        return self.filtered.torque_noise_floor
+
+    @property
+    def angle_floor(self) -> float:
+        """One-sided spectral floor of the recorded angle, rad²/Hz."""
+        return self.filtered.bandwidth.noise_floor
+
+    @property
+    def n(self) -> int:
+        return len(self.time)
+
+    @property
+    def duration(self) -> float:
+        return float(self.time[-1] - self.time[0])
+
+    def lowpass(self, x: np.ndarray) -> np.ndarray:
+        """``x`` through the same low-pass as the recorded channels (shape (n,))."""
+        return self.filtered.lowpass(x)
+
+    def linear_part(self, x: np.ndarray) -> np.ndarray:
+        """Least-squares fit of ``x`` (n,) on 1, y, ẏ, ÿ."""
+        key = "_linear_basis"
+        q = self.__dict__.get(key)
+        if q is None:
+            basis = np.column_stack([np.ones(self.n), self.angle, self.velocity, self.acceleration])
+            basis = basis / np.maximum(np.linalg.norm(basis, axis=0), 1e-300)
+            q = np.linalg.qr(basis)[0]
+            object.__setattr__(self, key, q)
+        return q @ (q.T @ np.asarray(x, float))
+
+    def differentiate(self, x: np.ndarray, order: int = 2) -> np.ndarray:
+        """``x`` filtered and differentiated like the angle: shape (order + 1, n)."""
+        return self.filtered.differentiate(x, order)
+
+    def with_channels(self, *, angle: np.ndarray | None = None, torque: np.ndarray | None = None) -> "Channels":
+        """A copy with corrected channels: ``angle`` the filtered y, ẏ, ÿ stacked (3, n), as
+        :meth:`differentiate` returns them; ``torque`` the filtered torque (n,)."""
+        changes = {}
+        if angle is not None:
+            changes.update(angle=angle[0], velocity=angle[1], acceleration=angle[2])
+        if torque is not None:
+            changes["torque"] = torque
+        return replace(self, **changes) if changes else self
+
+    def elastic_target(self) -> np.ndarray:
+        """z = f − m·ÿ − b·ẏ: the torque the nominal model leaves to the elastic element (n,)."""
+        return self.torque - self.inertia * self.acceleration - self.damping * self.velocity
+
+
+def channels_from(trial: Trial, result) -> Channels:
+    """Build the :class:`Channels` of a trial from its stiffness analysis.
+
+    Parameters
+    ----------
+    trial : Trial
+    result : StiffnessResult
+        The analysis of ``trial`` (gives the filtered signals, m, b and σ̂).
+
+    Returns
+    -------
+    Channels
+    """
+    f = result.filtered
+    external = result.variant == "external"
+    raw_torque = trial.torque if external else trial.elastic_torque
+    if external:
+        m, b = result.inertia.median, result.damping.median
+        mechanics = "given" if result.identification.given else "identified"
+    else:
+        m = b = 0.0
+        mechanics = "none"
+    return Channels(
+        name=trial.name, time=np.asarray(trial.time, float), filtered=f, angle=f.angle, velocity=f.velocity,
+        acceleration=f.acceleration, torque=f.torque, raw_angle=np.asarray(trial.angle, float),
+        raw_torque=np.asarray(raw_torque, float), inertia=float(m), damping=float(b), mechanics=mechanics,
+        stiffness=np.asarray(result.stiffness, float), observable=np.asarray(result.observable, bool))

@@ -1,0 +1,148 @@
+"""Inertia and damping of one trial: given, or identified in three steps behind one call.
+
+:func:`identify_mechanics` runs windowed least squares (the starting point), the maximum of the
+Kalman model's marginal likelihood, and the emcee posterior, and returns an
+:class:`Identification` that keeps each step's result as a typed object (the report's posterior
+page and the model checks compare them). Pure numpy (emcee for the sampling): no I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import TrialError
+from ..estimate.estimators import kalman_decimation
+from ..estimate.kalman import NoiseLevels
+from ..filtered import Filtered
+from ..interval import Interval
+from ..protocol import Protocol
+from .least_squares import LeastSquaresFit, least_squares
+from .likelihood import MechanicsFit, MechanicsProblem, kalman_mechanics
+from .posterior import Posterior, sample
+
+#: Identification windows, in periods of the typical motion frequency.
+IDENTIFY_PERIODS = 4.0
+
+
+@dataclass(frozen=True)
+class Identification:
+    """How inertia and damping were obtained.
+
+    Parameters
+    ----------
+    method : {"given", "kalman+emcee"}
+    inertia, damping : Interval
+        kg·m² (kg) and N·m·s/rad (N·s/m); zero width where given.
+    covariance : ndarray, shape (2, 2)
+        Covariance of (m, b) over the posterior draws (zero where both are given).
+    least_squares : LeastSquaresFit or None
+    maximum_likelihood : MechanicsFit or None
+    posterior : Posterior or None
+        Draws of (m, b, log noise levels) with the MCMC diagnostics.
+    noise_levels : NoiseLevels or None
+        Posterior median of the Kalman model's noise levels.
+    decimation : int or None
+        Samples per filter step of the likelihood.
+    warnings : tuple of str
+    expected_inertia : tuple of float or None
+        The range of m the protocol expects for the set-up (kg·m²), when it gives one.
+    """
+
+    method: str
+    inertia: Interval
+    damping: Interval
+    covariance: np.ndarray
+    least_squares: LeastSquaresFit | None = None
+    maximum_likelihood: MechanicsFit | None = None
+    posterior: Posterior | None = None
+    noise_levels: NoiseLevels | None = None
+    decimation: int | None = None
+    warnings: tuple[str, ...] = field(default=())
+    expected_inertia: tuple[float, float] | None = None
+
+    @property
+    def given(self) -> bool:
+        return self.method == "given"
+
+    @property
+    def inertia_in_expected_range(self) -> bool | None:
+        """Whether the median inertia lies in :attr:`expected_inertia` (None without a range)."""
+        if self.expected_inertia is None:
+            return None
+        lo, hi = self.expected_inertia
+        return bool(lo <= self.inertia.median <= hi)
+
+    def to_dict(self) -> dict:
+        """JSON-ready (``identification`` of ``summary.json`` and ``posterior.json``)."""
+        out = {"method": "given"} if self.given else self._fits_dict()
+        if self.expected_inertia is not None:
+            out["inertia_in_expected_range"] = {"range": list(self.expected_inertia),
+                                                "inside": self.inertia_in_expected_range}
+        return out
+
+    def _fits_dict(self) -> dict:
+        ls, ml = self.least_squares, self.maximum_likelihood
+        return {"method": self.method,
+                "least_squares": {"inertia": ls.inertia, "damping": ls.damping, "window_s": ls.window,
+                                  "condition": ls.condition},
+                "maximum_likelihood": {"inertia": ml.inertia, "damping": ml.damping,
+                                       "noise_levels": ml.noise.to_dict(), "loglik": ml.loglik},
+                "noise_levels": self.noise_levels.to_dict(), "decimation": self.decimation,
+                "mcmc": self.posterior.diagnostics.to_dict(), "warnings": list(self.warnings)}
+
+
+def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random.Generator, seed: int,
+                       where: str = "trial") -> Identification:
+    """Inertia and damping: the protocol's where given, else least squares → ML → emcee posterior.
+
+    Parameters
+    ----------
+    filtered : Filtered
+        The trial's signals (external variant).
+    protocol : Protocol
+        ``inertia``/``damping`` (given values), their priors and ``ci_level``.
+    rng : numpy.random.Generator
+        Source of every random draw of the posterior.
+    seed : int
+        Recorded in the MCMC diagnostics.
+    where : str
+        The trial's file, for error messages.
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    TrialError
+        When a posterior median is not positive (the data do not determine it).
+    """
+    m, b = protocol.inertia, protocol.damping
+    if m is not None and b is not None:
+        return Identification("given", Interval.fixed(m), Interval.fixed(b), np.zeros((2, 2)))
+    guess = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
+                          sample_period=filtered.sample_period, window=IDENTIFY_PERIODS / filtered.motion_hz)
+    decimation = kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
+    problem = MechanicsProblem.build(filtered.angle, filtered.velocity, filtered.acceleration, filtered.torque,
+                                     sample_period=filtered.sample_period, decimation=decimation,
+                                     motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge)
+    fit = kalman_mechanics(problem, guess=guess)
+    post = sample(problem, start=fit, inertia_prior=protocol.inertia_prior, damping_prior=protocol.damping_prior,
+                  rng=rng, seed=seed)
+    draws = post.mechanics.copy()
+    out = []
+    for j, (name, given) in enumerate((("inertia", m), ("damping", b))):
+        if given is not None:
+            draws[:, j] = given
+            out.append(Interval.fixed(given))
+            continue
+        iv = Interval.of_draws(draws[:, j], protocol.ci_level)
+        if not iv.median > 0:
+            raise TrialError(where, f"{name} could not be identified (its posterior median is "
+                                    f"{iv.median:.3g}); give it with --{name} or in the protocol")
+        out.append(iv)
+    return Identification("kalman+emcee", out[0], out[1], np.cov(draws.T), least_squares=guess,
+                          maximum_likelihood=fit, posterior=post, noise_levels=post.noise_levels(),
+                          decimation=decimation, warnings=tuple(post.warnings))
