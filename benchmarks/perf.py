@@ -3,8 +3,8 @@
     python benchmarks/perf.py [--quick]
 
 1. One estimator pass on 10⁶ samples ÷ one ``numpy.cumsum`` over 10⁶ float64 (target ≤ 10):
-   the observer (exact and Euler discretisations, forwards and backwards; compiled and the
-   pure-NumPy blocked scan) and the Kalman filter + RTS smoother.
+   the observer (exact and Euler discretisations, forwards and backwards, as the estimators run
+   it; and the pure-NumPy blocked scan used without numba) and the Kalman filter + RTS smoother.
 2. Bands from 2000 posterior draws ÷ one estimator pass (target ≤ 3).
 3. Full ``analyze`` of a 60 s, 1 kHz trial with identification, bands and the PDF report (target
    ≤ 5 s on 2 cores).
@@ -66,7 +66,7 @@ def passes() -> tuple[list[tuple[str, float]], float, dict]:
         gain = 0.5 if disc == "euler" else 300.0       # Euler needs α·|ẏ|·Ts < 2 to stay stable
         for direction, sl in (("forwards", slice(None)), ("backwards", slice(None, None, -1))):
             vel, drv = np.ascontiguousarray(sig.velocity[sl]), np.ascontiguousarray(drive[sl])
-            out.append((f"observer, {disc}, {direction} (compiled, coefficients on the fly)",
+            out.append((f"observer, {disc}, {direction} (coefficients in NumPy, compiled recursion: as the estimators run it)",
                         best(lambda disc=disc, gain=gain, vel=vel, drv=drv: observer.observe(
                             vel, drv, observer_gain=gain, sample_period=ts, discretisation=disc))))
 

@@ -44,9 +44,9 @@ def test_scan_refuses_an_unstable_recursion():
 
 
 @pytest.mark.parametrize("discretisation", ["exact", "euler"])
-def test_fused_observer_pass_equals_coefficients_and_scan(discretisation):
-    # the compiled pass (coefficients on the fly) against the NumPy path: coefficients, then the
-    # blocked scan (exact) or the loop (Euler's a may leave [0, 1])
+def test_observer_pass_equals_coefficients_and_scan(discretisation):
+    # observe() (coefficients, then the compiled recursion) against the path without numba:
+    # the same coefficients, then the blocked scan (exact) or the loop (Euler's a may leave [0, 1])
     rng = np.random.default_rng(2)
     velocity = 0.2 * np.sin(np.arange(50_000) * 2e-3) + 0.02 * rng.standard_normal(50_000)
     drive = 20.0 * velocity + rng.standard_normal(50_000)

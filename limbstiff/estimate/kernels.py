@@ -6,8 +6,7 @@ compilation of a few seconds happens once per installation); without it, or with
 environment variable ``LIMBSTIFF_NO_JIT=1``, the same source runs in CPython. The reference
 (``<kernel>.py_func`` when compiled) is what the tests compare the compiled code against.
 
-Kernels: the first-order linear recursion of the observer (alone, and fused with its
-coefficients); the two-state Kalman model's covariance step, written once (:func:`_predict`,
+Kernels: the first-order linear recursion of the observer; the two-state Kalman model's covariance step, written once (:func:`_predict`,
 :func:`_update`) and used by the filter (log-likelihood only, or with its moments), the
 Rauch–Tung–Striebel smoother (in place) and the filter pass over several measurement channels
 whose likelihood is quadratic in their weights (inertia and damping,
@@ -29,27 +28,6 @@ def linear_recursion(a, c, initial):
     x = initial
     for k in range(n):
         x = a[k] * x + c[k]
-        out[k] = x
-    return out
-
-
-def observer_pass(velocity, drive, gain_step, threshold, exact, initial):
-    """Update law (7) in one loop: the coefficients of
-    :func:`limbstiff.estimate.observer.recursion_coefficients` computed on the fly, then
-    x[k] = a[k]·x[k−1] + c[k]. ``gain_step`` is α·Ts; returns σ̂, shape (n,)."""
-    n = velocity.shape[0]
-    out = np.empty(n)
-    x = initial
-    for k in range(n):
-        v = velocity[k]
-        speed = abs(v)
-        if speed > threshold:
-            g = gain_step * speed
-            sign = 1.0 if v > 0 else -1.0
-            if exact:
-                x = math.exp(-g) * x - math.expm1(-g) / speed * sign * drive[k]
-            else:
-                x = (1.0 - g) * x + gain_step * sign * drive[k]
         out[k] = x
     return out
 
@@ -270,7 +248,7 @@ def _compile():
         return False
     g = globals()
     # callees first, so that the compiled callers call compiled code
-    for name in ("_predict", "_update", "linear_recursion", "observer_pass", "kalman_filter", "kalman_loglik",
+    for name in ("_predict", "_update", "linear_recursion", "kalman_filter", "kalman_loglik",
                  "rts_smoother", "kalman_quadratic", "marginal_loglik"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True

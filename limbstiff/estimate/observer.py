@@ -15,8 +15,9 @@ and r = ḟ). The law is linear in σ̂, so over each sample it is a first-order
   α·|ẏ|·Ts > 2; kept to compare with.
 
 Where ẏ = 0 (or below the velocity noise level) a = 1 and c = 0: the estimate is held.
-Pure numpy (the recursion is compiled in :mod:`limbstiff.estimate.kernels`, or a blocked NumPy scan
-in :mod:`limbstiff.estimate.scan` without numba): no I/O.
+The law is written once, in :func:`recursion_coefficients`; the recursion itself runs compiled
+(:mod:`limbstiff.estimate.kernels`), or as a blocked NumPy scan (:mod:`limbstiff.estimate.scan`)
+when numba is disabled. Pure numpy: no I/O.
 """
 
 from __future__ import annotations
@@ -105,13 +106,6 @@ def observe(velocity: np.ndarray, drive: np.ndarray, *, observer_gain: float, sa
     -------
     ndarray, shape (n,), N·m/rad (N/m)
     """
-    if kernels.COMPILED:
-        if discretisation not in DISCRETISATIONS:
-            raise ValueError(f"discretisation must be one of {DISCRETISATIONS}, not {discretisation!r}")
-        # one compiled loop, coefficients on the fly: no temporary arrays
-        return kernels.observer_pass(np.ascontiguousarray(velocity, dtype=float),
-                                     np.ascontiguousarray(drive, dtype=float), float(observer_gain * sample_period),
-                                     float(velocity_threshold), discretisation == "exact", float(initial))
     a, c = recursion_coefficients(velocity, drive, observer_gain=observer_gain,
                                   sample_period=sample_period, discretisation=discretisation,
                                   velocity_threshold=velocity_threshold)
