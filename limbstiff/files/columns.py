@@ -83,53 +83,120 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
     mapped = dict(protocol.columns) if protocol is not None else {}
     claimed = {spec.header.strip() for spec in mapped.values() if spec.header is not None}
     found = ", ".join(h for h in headers if h) or "none"
-    found = f"{'headers' if noun == 'column' else noun + 's'} found: {found}"
     row = list(units or ())
     row += [None] * (len(headers) - len(row))
+    file = _Listing(where, noun, list(headers), row,
+                    f"{'headers' if noun == 'column' else noun + 's'} found: {found}")
     standard = _standard_headers(where, headers, row, claimed, noun)
     columns: dict[str, ColumnSpec] = {}
     for field in FIELDS:
         spec = mapped.get(field)
-        label = _LABELS[field]
         if spec is not None and spec.header is not None:
-            header = spec.header.strip()
-            if header not in headers:
-                raise TrialError(where, f"{noun} '{header}' given by the protocol for {label} is not "
-                                        f"in the file ({found})")
-            index = list(headers).index(header)
-            named = unit_in_header(header)
-            _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", row[index]))
-            _agree(where, noun, header, ("its name", named), ("the unit row", row[index]))
-            unit = spec.unit or row[index] or named
-            if unit is None:
-                raise TrialError(where, f"{noun} '{header}' ({label}) has no unit in its name; "
-                                        f"give one in the protocol ([columns.{field}] unit)")
-            _check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
-            other = [_LABELS[c.field] for c in columns.values() if c.header == header]
-            if other:
-                raise TrialError(where, f"{noun} '{header}' is given by the protocol for both "
-                                        f"{other[0]} and {label}")
-            columns[field] = ColumnSpec(field, header, index, unit, spec.scale)
+            columns[field] = _mapped_column(file, field, spec, columns)
             continue
-        candidates = [(i, q, u) for i, (q, u) in standard.items()
-                      if STANDARD_QUANTITIES[q].field == field]
-        if not candidates:
-            continue
-        if len(candidates) > 1:
-            names = " and ".join(f"'{headers[c[0]]}'" for c in candidates)
-            if len({c[1] for c in candidates}) > 1:
-                raise TrialError(where, f"mixes rotational and translational {noun}s ({names})")
-            raise TrialError(where, f"more than one {label} {noun} ({names})")
-        index, quantity, unit = candidates[0]
-        header = headers[index]
-        if spec is not None and spec.unit:
-            _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", row[index]))
-            unit = spec.unit
-            _check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
-        else:
-            _check_unit(where, noun, header, unit, quantity.replace("_", " "),
-                        STANDARD_QUANTITIES[quantity].dimensions, hint=True)
-        columns[field] = ColumnSpec(field, header, index, unit, spec.scale if spec is not None else 1.0)
+        column = _standard_column(file, field, spec, standard)
+        if column is not None:
+            columns[field] = column
+    _check_complete(file, columns, need_time)
+    return columns
+
+
+class _Listing(NamedTuple):
+    """The headers of one file, as :func:`resolve_columns` was given them.
+
+    Parameters
+    ----------
+    where : str
+        File name, for error messages.
+    noun : str
+        What a header names (``"column"`` or ``"variable"``).
+    headers : list of str
+    row : list of (str or None)
+        The unit row, aligned with ``headers`` (all None without one).
+    found : str
+        ``headers found: …``, for the messages about a missing column.
+    """
+
+    where: str
+    noun: str
+    headers: list
+    row: list
+    found: str
+
+
+def _mapped_column(file: _Listing, field: str, spec, columns: dict[str, ColumnSpec]) -> ColumnSpec:
+    """The column the protocol names for ``field``, its unit checked against the file's.
+
+    Parameters
+    ----------
+    file : _Listing
+    field : str
+        Trial field.
+    spec : protocol column spec
+        With a ``header``; ``unit`` and ``scale`` as the protocol gives them.
+    columns : dict of str to ColumnSpec
+        The fields resolved so far, to refuse one column mapped to two quantities.
+    """
+    where, noun, row, label = file.where, file.noun, file.row, _LABELS[field]
+    header = spec.header.strip()
+    if header not in file.headers:
+        raise TrialError(where, f"{noun} '{header}' given by the protocol for {label} is not "
+                                f"in the file ({file.found})")
+    index = file.headers.index(header)
+    named = unit_in_header(header)
+    _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", row[index]))
+    _agree(where, noun, header, ("its name", named), ("the unit row", row[index]))
+    unit = spec.unit or row[index] or named
+    if unit is None:
+        raise TrialError(where, f"{noun} '{header}' ({label}) has no unit in its name; "
+                                f"give one in the protocol ([columns.{field}] unit)")
+    _check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
+    other = [_LABELS[c.field] for c in columns.values() if c.header == header]
+    if other:
+        raise TrialError(where, f"{noun} '{header}' is given by the protocol for both "
+                                f"{other[0]} and {label}")
+    return ColumnSpec(field, header, index, unit, spec.scale)
+
+
+def _standard_column(file: _Listing, field: str, spec,
+                     standard: dict[int, tuple[str, str]]) -> ColumnSpec | None:
+    """The one standard header holding ``field``, or None when there is none.
+
+    Parameters
+    ----------
+    file : _Listing
+    field : str
+        Trial field.
+    spec : protocol column spec or None
+        Without a ``header``; its ``unit`` and ``scale``, if any, override the header's.
+    standard : dict of int to (str, str)
+        (quantity, unit) of the unclaimed standard headers, by index.
+    """
+    where, noun, label = file.where, file.noun, _LABELS[field]
+    candidates = [(i, q, u) for i, (q, u) in standard.items()
+                  if STANDARD_QUANTITIES[q].field == field]
+    if not candidates:
+        return None
+    if len(candidates) > 1:
+        names = " and ".join(f"'{file.headers[c[0]]}'" for c in candidates)
+        if len({c[1] for c in candidates}) > 1:
+            raise TrialError(where, f"mixes rotational and translational {noun}s ({names})")
+        raise TrialError(where, f"more than one {label} {noun} ({names})")
+    index, quantity, unit = candidates[0]
+    header = file.headers[index]
+    if spec is not None and spec.unit:
+        _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", file.row[index]))
+        unit = spec.unit
+        _check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
+    else:
+        _check_unit(where, noun, header, unit, quantity.replace("_", " "),
+                    STANDARD_QUANTITIES[quantity].dimensions, hint=True)
+    return ColumnSpec(field, header, index, unit, spec.scale if spec is not None else 1.0)
+
+
+def _check_complete(file: _Listing, columns: dict[str, ColumnSpec], need_time: bool) -> None:
+    """Error unless time (if needed), angle, and torque or elastic torque were all found."""
+    where, noun, found = file.where, file.noun, file.found
     if need_time and "time" not in columns:
         raise TrialError(where, f"no time {noun} (expected time_s or time_ms; {found})")
     if "angle" not in columns:
@@ -138,7 +205,6 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
     if "torque" not in columns and "elastic_torque" not in columns:
         raise TrialError(where, f"no torque or force {noun} (expected torque_Nm, force_N, "
                                 f"elastic_torque_Nm or elastic_force_N; {found})")
-    return columns
 
 
 def _standard_headers(where, headers, row, claimed, noun) -> dict[int, tuple[str, str]]:
@@ -171,6 +237,7 @@ def _agree(where, noun, header, first, second) -> None:
 
 
 def _check_unit(where, noun, header, unit, label, dimensions, hint=False) -> None:
+    """Error unless ``unit`` is a known unit of one of ``dimensions``."""
     accepted = ", ".join(accepted_units(dimensions))
     if unit not in UNITS:
         raise TrialError(where, f"{noun} '{header}': unknown unit '{unit}' for {label} (accepted: {accepted})")

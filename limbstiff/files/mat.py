@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import joint_kind, resolve_columns
+from .columns import ColumnSpec, joint_kind, resolve_columns
 from .units import FIELDS, parse_standard_header, to_si
 from .validate import checked_trial
 
@@ -75,10 +75,8 @@ def read_mat(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
     """
     where = str(path)
     variables = _load(where, raw)
-    mapped = {f: c.header.strip() for f, c in protocol.columns.items() if c.header} if protocol else {}
-    arrays = {expr: _lookup(where, variables, expr) for expr in mapped.values()}
+    arrays, has_time = _protocol_arrays(where, variables, protocol)
     headers = list(variables) + [e for e in arrays if e not in variables]
-    has_time = "time" in mapped or any((parse_standard_header(v) or ("",))[0] == "time" for v in variables)
     columns = resolve_columns(where, headers, protocol, noun="variable", need_time=has_time)
     kind = joint_kind(where, columns, noun="variable")
     for column in columns.values():
@@ -94,22 +92,58 @@ def read_mat(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
         used.add(rate_name)
     for field in FIELDS:
         column = columns.get(field)
-        if column is None:
-            continue
-        data = arrays[column.header]
-        if data.size != n:
-            raise TrialError(where, f"variable '{column.header}' has {data.size} samples, "
-                                    f"'{first.header}' has {n}")
-        bad = ~np.isfinite(data)
-        if bad.any():
-            k = int(np.flatnonzero(bad)[0])
-            what = "NaN" if np.isnan(data[k]) else "infinite value"
-            at = "" if field == "time" else f" (t = {values['time'][k]:g} s)"
-            raise TrialError(where, f"{what} in variable '{column.header}' at sample {k + 1}{at}")
-        values[field] = to_si(data, column.unit) * column.scale
+        if column is not None:
+            values[field] = _channel(where, column, arrays[column.header], first.header, n, values["time"])
     metadata, warnings = _leftovers({k: v for k, v in variables.items() if k not in used})
     return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
                          warnings=warnings, locate=lambda k: f"sample {k + 1}")
+
+
+def _protocol_arrays(where: str, variables: dict, protocol) -> tuple[dict[str, np.ndarray], bool]:
+    """The arrays the protocol's variable paths point to, and whether the file has a time variable.
+
+    Returns
+    -------
+    arrays : dict of str to ndarray, shape (n,)
+        By variable path, as the protocol writes it.
+    has_time : bool
+        True when the protocol maps time or a variable has a standard time name.
+    """
+    mapped = {f: c.header.strip() for f, c in protocol.columns.items() if c.header} if protocol else {}
+    arrays = {expr: _lookup(where, variables, expr) for expr in mapped.values()}
+    has_time = "time" in mapped or any((parse_standard_header(v) or ("",))[0] == "time" for v in variables)
+    return arrays, has_time
+
+
+def _channel(where: str, column: ColumnSpec, data: np.ndarray, first: str, n: int,
+             time: np.ndarray | None) -> np.ndarray:
+    """One recorded channel in SI units, after checking its length and that every value is finite.
+
+    Parameters
+    ----------
+    where : str
+        File name, for error messages.
+    column : ColumnSpec
+        Where the channel comes from, its unit and scale.
+    data : ndarray, shape (m,)
+        Its values in the file's unit.
+    first : str
+        The variable that set the length ``n``, for messages.
+    n : int
+        Samples expected.
+    time : ndarray, shape (n,), s, or None
+        The time base, for messages; None while reading the time itself.
+    """
+    if data.size != n:
+        raise TrialError(where, f"variable '{column.header}' has {data.size} samples, "
+                                f"'{first}' has {n}")
+    bad = ~np.isfinite(data)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        what = "NaN" if np.isnan(data[k]) else "infinite value"
+        at = "" if column.field == "time" else f" (t = {time[k]:g} s)"
+        raise TrialError(where, f"{what} in variable '{column.header}' at sample {k + 1}{at}")
+    return to_si(data, column.unit) * column.scale
 
 
 def is_v73(raw: bytes) -> bool:

@@ -67,45 +67,95 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
         With a one-line message naming the file and the problem.
     """
     where = str(path)
-    delimiter = getattr(protocol, "delimiter", "auto")
-    decimal = getattr(protocol, "decimal", "auto")
-    unit_row = getattr(protocol, "unit_row", "auto")
     text = _decode(where, raw)
     body = _body(text, raw)
     if body is None:   # blank lines or bare CR line ends among the rows: line by line
         metadata, header_line, rest = _split(where, text)
     else:
         metadata, header_line, rest = body.metadata, body.header, body.head
-    if delimiter == "auto":
-        delimiter = _detect_delimiter(header_line)
-    headers = _headers(where, header_line, delimiter, forced=getattr(protocol, "delimiter", "auto") != "auto")
-    n_head = len(rest)
-    units, rest = _unit_row(where, rest, delimiter, unit_row)
-    if not rest:
-        raise TrialError(where, "no data rows below the header")
-    decimal = _detect_decimal(where, rest, delimiter, decimal)
-    columns = resolve_columns(where, headers, protocol, units=units)
-    kind = joint_kind(where, columns)
-    if body is None:
-        numbers = [n for n, _ in rest]
-        lines = [line for _, line in rest]
-
-        def source():
-            return io.StringIO("\n".join(lines))
-    else:
-        # the rows straight from the file's bytes: no list of lines, no second copy as text
-        start = body.offsets[n_head - len(rest)]
-        numbers = range(rest[0][0], rest[0][0] + body.rows - (n_head - len(rest)))
-
-        def source():
-            return io.BytesIO(raw[start:])
     del text
-    values = _parse(where, headers, columns, source, numbers, delimiter, decimal)
+    layout = _layout(where, header_line, rest, protocol)
+    columns = resolve_columns(where, layout.headers, protocol, units=layout.units)
+    kind = joint_kind(where, columns)
+    numbers, source = _data_rows(raw, body, layout.rows, skipped=len(rest) - len(layout.rows))
+    values = _parse(where, layout.headers, columns, source, numbers, layout.delimiter, layout.decimal)
+    return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
+                         warnings=_ignored(layout.headers, columns), locate=lambda k: f"line {numbers[k]}")
+
+
+class _Layout(NamedTuple):
+    """How the rows of a text trial are written, detected or as the protocol says.
+
+    Parameters
+    ----------
+    headers : list of str
+        Column headers, stripped.
+    units : list of (str or None) or None
+        The unit row, aligned with ``headers``; None without one.
+    rows : list of (int, str)
+        The first data rows (line number, line), below the unit row if any.
+    delimiter : str
+        ``,``, ``\\t`` or ``;``.
+    decimal : str
+        ``.`` or ``,``.
+    """
+
+    headers: list
+    units: list | None
+    rows: list
+    delimiter: str
+    decimal: str
+
+
+def _layout(where: str, header_line: str, rest: list, protocol) -> _Layout:
+    """Delimiter, headers, unit row and decimal mark, from the protocol's ``[format]`` or detected
+    in ``header_line`` and the first rows below it, ``rest`` (line number, line)."""
+    forced = getattr(protocol, "delimiter", "auto")
+    delimiter = _detect_delimiter(header_line) if forced == "auto" else forced
+    headers = _headers(where, header_line, delimiter, forced=forced != "auto")
+    units, rows = _unit_row(where, rest, delimiter, getattr(protocol, "unit_row", "auto"))
+    if not rows:
+        raise TrialError(where, "no data rows below the header")
+    decimal = _detect_decimal(where, rows, delimiter, getattr(protocol, "decimal", "auto"))
+    return _Layout(headers, units, rows, delimiter, decimal)
+
+
+def _data_rows(raw: bytes, body: _Body | None, rows: list, skipped: int):
+    """The file's line number of every data row, and a function giving a fresh file object over them.
+
+    Parameters
+    ----------
+    raw : bytes
+        The file's content.
+    body : _Body or None
+        As :func:`_body` found it; None when the rows were split line by line.
+    rows : list of (int, str)
+        The first data rows (all of them when ``body`` is None).
+    skipped : int
+        Rows of ``body.head`` above the data (the unit row).
+
+    Returns
+    -------
+    numbers : sequence of int
+        ``numbers[k]`` is the line number of data row k.
+    source : callable
+        ``source()`` gives a new text or bytes file object over the data rows.
+    """
+    if body is None:
+        numbers = [n for n, _ in rows]
+        lines = [line for _, line in rows]
+        return numbers, lambda: io.StringIO("\n".join(lines))
+    # the rows straight from the file's bytes: no list of lines, no second copy as text
+    start = body.offsets[skipped]
+    numbers = range(rows[0][0], rows[0][0] + body.rows - skipped)
+    return numbers, lambda: io.BytesIO(raw[start:])
+
+
+def _ignored(headers: list[str], columns: dict[str, ColumnSpec]) -> list[str]:
+    """The warning naming the columns no Trial field uses (empty list when all are used)."""
     used = {c.index for c in columns.values()}
     ignored = [h for i, h in enumerate(headers) if i not in used and h]
-    warnings = ["ignored column(s): " + ", ".join(f"'{h}'" for h in ignored)] if ignored else []
-    return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
-                         warnings=warnings, locate=lambda k: f"line {numbers[k]}")
+    return ["ignored column(s): " + ", ".join(f"'{h}'" for h in ignored)] if ignored else []
 
 
 def _decode(where: str, raw: bytes) -> str:

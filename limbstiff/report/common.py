@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import __version__
 from ..files.atomic import atomic_output
+from ..interval import Interval
 
 #: A4 portrait, inches.
 A4 = (8.27, 11.69)
@@ -127,11 +128,11 @@ def fmt(x, unit: str = "", digits: int = 4) -> str:
     return f"{x:.{digits}g} {unit}".strip()
 
 
-def fmt_interval(v: dict | None, unit: str, ci_level: float) -> str:
-    """``median unit [lo, hi] (90 % interval)`` of an interval dict; ``—`` when missing."""
-    if not v or v.get("median") is None:
+def fmt_interval(v: Interval | None, unit: str, ci_level: float) -> str:
+    """``median unit [lo, hi] (90 % interval)`` of an interval; ``—`` when missing."""
+    if v is None or v.median is None:
         return "—"
-    return f"{fmt(v['median'], unit)}  [{fmt(v['lo'])}, {fmt(v['hi'])}]  ({100 * ci_level:.0f} % interval)"
+    return f"{fmt(v.median, unit)}  [{fmt(v.lo)}, {fmt(v.hi)}]  ({100 * ci_level:.0f} % interval)"
 
 
 def footer(fig, lines: Iterable[str], page: int | None = None, pages: int | None = None) -> None:

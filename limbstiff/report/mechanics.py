@@ -5,8 +5,11 @@ Kalman model's noise levels.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
+from ..interval import Interval
 from .common import FONT, fmt, new_page, text_panel
 
 #: Credible masses drawn as contours on the (m, b) scatter.
@@ -14,6 +17,7 @@ CONTOUR_MASSES = (0.5, 0.9)
 
 
 def _prior_text(prior) -> str:
+    """The prior of a protocol's ``*_prior`` table, in words."""
     if not prior:
         return "flat on > 0"
     d = prior.get("distribution")
@@ -57,6 +61,7 @@ def _contours(ax, x, y, xlim, ylim) -> None:
 
 
 def _hist(ax, x, interval, marks, label, inside):
+    """Histogram of draws ``x`` (n,) with the (median, lo, hi) interval and the marks inside the axis."""
     ax.hist(x, bins=40, color="C0", alpha=0.55, density=True)
     med, lo, hi = interval
     ax.axvspan(lo, hi, color="C0", alpha=0.12, lw=0)
@@ -68,82 +73,145 @@ def _hist(ax, x, interval, marks, label, inside):
     ax.set_ylabel("density")
 
 
+class _Parameter(NamedTuple):
+    """What the page shows of one of inertia and damping.
+
+    Parameters
+    ----------
+    name, symbol, unit : str
+        ``inertia``, ``m``, ``kg·m²`` (or damping, b, …).
+    interval : Interval
+        The posterior median and interval, SI units.
+    draws : ndarray, shape (n,)
+        The posterior draws, SI units.
+    marks : list of (str, float or None, str, str)
+        Least-squares and maximum-likelihood values: (label, value, marker, colour).
+    free : bool
+        False when the value was given (all draws equal).
+    limits : (float, float) or None
+        Axis range (None when not free).
+    inside : list of bool
+        Per mark, whether it lies inside ``limits``.
+    """
+
+    name: str
+    symbol: str
+    unit: str
+    interval: Interval
+    draws: np.ndarray
+    marks: list
+    free: bool
+    limits: tuple | None
+    inside: list
+
+    @property
+    def label(self) -> str:
+        """Axis label: ``inertia m [kg·m²]``."""
+        return f"{self.name} {self.symbol} [{self.unit}]"
+
+
 def mechanics_page(result):
     """The posterior of inertia and damping as a pairwise plot (or why there is none)."""
-    from matplotlib.ticker import MaxNLocator
-    u = result.trial.units
     post = result.posterior
     fig = new_page("Inertia and damping: posterior", constrained=post is not None)
     if post is None:
-        ax = fig.add_axes((0.06, 0.5, 0.88, 0.38))
-        if result.variant == "direct":
-            why = ("Direct variant: the torque on the elastic element is measured, so the stiffness needs "
-                   "no inertia or damping and none was identified.")
-        else:
-            why = (f"Inertia and damping were given, not identified: m = {fmt(result.inertia.median, u['inertia'])}, "
-                   f"b = {fmt(result.damping.median, u['damping'])}. There is no posterior to show; the band "
-                   "of the stiffness holds the estimator's own uncertainty only.")
-        text_panel(ax, why, title="No posterior of inertia and damping", wrap=80)
+        _no_posterior(fig.add_axes((0.06, 0.5, 0.88, 0.38)), result)
         return fig
     draws = np.asarray(post.draws, float)
-    ident = result.identification
-    ls, ml = ident.least_squares, ident.maximum_likelihood
-    ci = result.ci_level
-    params = [("inertia", "m", u["inertia"], result.inertia), ("damping", "b", u["damping"], result.damping)]
-    free = [j for j in range(2) if np.ptp(draws[:, j]) > 0]
+    params = _parameters(result, draws)
+    free = [p for p in params if p.free]
     outer = fig.add_gridspec(2, 1, height_ratios=[2, 0.75])
     gs = outer[0].subgridspec(2, 2)
-    marks_of = {j: [("least squares", getattr(ls, params[j][0]), "s", "C1"),
-                    ("max. likelihood", getattr(ml, params[j][0]), "D", "C3")] for j in range(2)}
-    lims, inside = {}, {}
-    for j in free:
-        lims[j], inside[j] = _limits(draws[:, j], [v for _, v, _, _ in marks_of[j]])
-    labels = {j: f"{params[j][0]} {params[j][1]} [{params[j][2]}]" for j in range(2)}
-    diag = {}
-    for k, j in enumerate(free):
-        ax = fig.add_subplot(gs[k, k] if len(free) == 2 else gs[0, :])
-        iv = params[j][3]
-        _hist(ax, draws[:, j], (iv.median, iv.lo, iv.hi), marks_of[j], labels[j], inside[j])
-        ax.set_xlim(*lims[j])
-        ax.xaxis.set_major_locator(MaxNLocator(4))
-        diag[j] = ax
+    diag = _diagonal(fig, gs, free)
     if len(free) == 2:
-        ax = fig.add_subplot(gs[1, 0], sharex=diag[0])
-        ax.scatter(draws[:, 0], draws[:, 1], s=2, lw=0, color="C0", alpha=0.35, rasterized=True,
-                   label="posterior draws")
-        _contours(ax, draws[:, 0], draws[:, 1], lims[0], lims[1])
-        m, b = result.inertia, result.damping
-        ax.errorbar([m.median], [b.median], xerr=[[m.median - m.lo], [m.hi - m.median]],
-                    yerr=[[b.median - b.lo], [b.hi - b.median]], fmt="o", color="k", ms=5, capsize=3, lw=1,
-                    label=f"median, {100 * ci:.0f} % intervals")
-        for (name, vm, marker, colour), (_, vb, _, _), okm, okb in zip(marks_of[0], marks_of[1], inside[0], inside[1]):
-            if okm and okb:
-                ax.plot([vm], [vb], marker, color=colour, ms=7, mfc="none", mew=1.5, label=name)
-        ax.set_xlim(*lims[0])
-        ax.set_ylim(*lims[1])
-        ax.yaxis.set_major_locator(MaxNLocator(5))
-        ax.set_xlabel(labels[0])
-        ax.set_ylabel(labels[1])
-        ax.legend(loc="upper right", fontsize=FONT["small"], framealpha=0.85)
+        _pair(fig.add_subplot(gs[1, 0], sharex=diag[0]), *params, result.ci_level)
         diag[0].set_xlabel("")
-    rows = []
-    for j, (name, sym, unit, iv) in enumerate(params):
-        if j in free:
-            rows.append((f"{name} {sym}", f"{fmt(iv.median, unit)} [{fmt(iv.lo)}, {fmt(iv.hi)}]"))
-        else:
-            rows.append((f"{name} {sym}", f"{fmt(iv.median, unit)} (given)"))
-        for (what, v, _, _), ok in zip(marks_of[j], inside.get(j, [True, True])):
-            if v is not None:
-                rows.append((f"  {what}", fmt(v, unit) + ("" if ok else " (off the plot)")))
-        rows.append(("  prior", _prior_text((result.settings or {}).get(f"{name}_prior"))))
-    if len(free) == 2:
-        rows.append(("correlation", f"{np.corrcoef(draws[:, 0], draws[:, 1])[0, 1]:+.2f}"))
-    rows.append(("draws", f"{draws.shape[0]}; black: median, shaded: {100 * ci:.0f} % interval; "
-                          "contours hold 50 % and 90 % of the draws"))
     text_ax = fig.add_subplot(gs[0, 1] if len(free) == 2 else gs[1, :])
-    text_panel(text_ax, rows, title="Values", key_width=0.4, wrap=34, fontsize=FONT["small"])
-    _noise_row(fig, outer[1].subgridspec(1, 3), draws, u)
+    text_panel(text_ax, _value_rows(result, params, draws), title="Values", key_width=0.4, wrap=34,
+               fontsize=FONT["small"])
+    _noise_row(fig, outer[1].subgridspec(1, 3), draws, result.trial.units)
     return fig
+
+
+def _no_posterior(ax, result) -> None:
+    """Say on ``ax`` why there is no posterior: direct variant, or m and b given."""
+    u = result.trial.units
+    if result.variant == "direct":
+        why = ("Direct variant: the torque on the elastic element is measured, so the stiffness needs "
+               "no inertia or damping and none was identified.")
+    else:
+        why = (f"Inertia and damping were given, not identified: m = {fmt(result.inertia.median, u['inertia'])}, "
+               f"b = {fmt(result.damping.median, u['damping'])}. There is no posterior to show; the band "
+               "of the stiffness holds the estimator's own uncertainty only.")
+    text_panel(ax, why, title="No posterior of inertia and damping", wrap=80)
+
+
+def _parameters(result, draws: np.ndarray) -> list[_Parameter]:
+    """Inertia and damping as the page shows them, from the posterior draws (n, ≥ 2)."""
+    ident = result.identification
+    params = []
+    for j, (name, symbol) in enumerate((("inertia", "m"), ("damping", "b"))):
+        marks = [("least squares", getattr(ident.least_squares, name), "s", "C1"),
+                 ("max. likelihood", getattr(ident.maximum_likelihood, name), "D", "C3")]
+        free = bool(np.ptp(draws[:, j]) > 0)
+        limits, inside = _limits(draws[:, j], [v for _, v, _, _ in marks]) if free else (None, [True, True])
+        params.append(_Parameter(name, symbol, result.trial.units[name], getattr(result, name), draws[:, j],
+                                 marks, free, limits, inside))
+    return params
+
+
+def _diagonal(fig, gs, free: list[_Parameter]) -> list:
+    """Histograms of the free parameters: the diagonal of the 2×2 grid ``gs`` (or its top row)."""
+    from matplotlib.ticker import MaxNLocator
+    axes = []
+    for k, p in enumerate(free):
+        ax = fig.add_subplot(gs[k, k] if len(free) == 2 else gs[0, :])
+        iv = p.interval
+        _hist(ax, p.draws, (iv.median, iv.lo, iv.hi), p.marks, p.label, p.inside)
+        ax.set_xlim(*p.limits)
+        ax.xaxis.set_major_locator(MaxNLocator(4))
+        axes.append(ax)
+    return axes
+
+
+def _pair(ax, m: _Parameter, b: _Parameter, ci: float) -> None:
+    """The (m, b) draws on ``ax``: points, contours, median with intervals, point estimates."""
+    from matplotlib.ticker import MaxNLocator
+    ax.scatter(m.draws, b.draws, s=2, lw=0, color="C0", alpha=0.35, rasterized=True, label="posterior draws")
+    _contours(ax, m.draws, b.draws, m.limits, b.limits)
+    mi, bi = m.interval, b.interval
+    ax.errorbar([mi.median], [bi.median], xerr=[[mi.median - mi.lo], [mi.hi - mi.median]],
+                yerr=[[bi.median - bi.lo], [bi.hi - bi.median]], fmt="o", color="k", ms=5, capsize=3, lw=1,
+                label=f"median, {100 * ci:.0f} % intervals")
+    for (name, vm, marker, colour), (_, vb, _, _), okm, okb in zip(m.marks, b.marks, m.inside, b.inside):
+        if okm and okb:
+            ax.plot([vm], [vb], marker, color=colour, ms=7, mfc="none", mew=1.5, label=name)
+    ax.set_xlim(*m.limits)
+    ax.set_ylim(*b.limits)
+    ax.yaxis.set_major_locator(MaxNLocator(5))
+    ax.set_xlabel(m.label)
+    ax.set_ylabel(b.label)
+    ax.legend(loc="upper right", fontsize=FONT["small"], framealpha=0.85)
+
+
+def _value_rows(result, params: list[_Parameter], draws: np.ndarray) -> list[tuple[str, str]]:
+    """(key, value) rows of the page's table: intervals, point estimates, priors, correlation."""
+    rows = []
+    for p in params:
+        iv = p.interval
+        if p.free:
+            rows.append((f"{p.name} {p.symbol}", f"{fmt(iv.median, p.unit)} [{fmt(iv.lo)}, {fmt(iv.hi)}]"))
+        else:
+            rows.append((f"{p.name} {p.symbol}", f"{fmt(iv.median, p.unit)} (given)"))
+        for (what, v, _, _), ok in zip(p.marks, p.inside):
+            if v is not None:
+                rows.append((f"  {what}", fmt(v, p.unit) + ("" if ok else " (off the plot)")))
+        rows.append(("  prior", _prior_text((result.settings or {}).get(f"{p.name}_prior"))))
+    if all(p.free for p in params):
+        rows.append(("correlation", f"{np.corrcoef(draws[:, 0], draws[:, 1])[0, 1]:+.2f}"))
+    rows.append(("draws", f"{draws.shape[0]}; black: median, shaded: {100 * result.ci_level:.0f} % interval; "
+                          "contours hold 50 % and 90 % of the draws"))
+    return rows
 
 
 def _noise_row(fig, gs, draws, u):

@@ -12,6 +12,7 @@ import textwrap
 
 import numpy as np
 
+from ..interval import Interval
 from .common import (FONT, envelope, envelope_band, fmt, fmt_interval, new_page, robust_limits, shade_false,
                      text_panel)
 
@@ -39,65 +40,111 @@ def recorded_torque(result) -> tuple[str, np.ndarray]:
 def summary_page(result):
     """Page 1: the trial at a glance, for a clinician (text only)."""
     fig = new_page(constrained=False)
-    s = result.summary()
-    u, ci = s["units"], s["ci_level"]
-    ident = result.identification
-    lines = [
-        ("Trial", s["trial"]),
-        ("Source", s["source"] or "(in memory)"),
-        ("Variant / estimator", f"{s['variant']} variant / {s['estimator']} estimator"),
-        ("Sampling", f"{s['fs_hz']:.4g} Hz, {s['n_samples']} samples, {s['duration_s']:.4g} s"),
-        ("Median stiffness", fmt_interval(s["stiffness"], u["stiffness"], ci)),
-        ("Stiffness range", f"{fmt(s['stiffness']['min'])} to {fmt(s['stiffness']['max'], u['stiffness'])} "
+    fig.text(0.06, 0.955, "Stiffness report", fontsize=FONT["title"], weight="bold")
+    fig.text(0.06, 0.93, result.trial.name, fontsize=FONT["heading"], color="0.3")
+    y = _key_values(fig, _summary_rows(result), 0.89)
+    y = _warning_list(fig, result.warnings, y - 0.015)
+    _metadata_list(fig, list(result.trial.metadata.items()), y)
+    return fig
+
+
+def _summary_rows(result) -> list[tuple[str, str]]:
+    """(label, text) of each line at the top of the summary page."""
+    trial, u, ci = result.trial, result.trial.units, result.ci_level
+    median, low, high = _informed_stiffness(result)
+    rows = [
+        ("Trial", trial.name),
+        ("Source", trial.source or "(in memory)"),
+        ("Variant / estimator", f"{result.variant} variant / {result.estimator} estimator"),
+        ("Sampling", f"{trial.fs:.4g} Hz, {trial.n_samples} samples, {trial.duration:.4g} s"),
+        ("Median stiffness", fmt_interval(median, u["stiffness"], ci)),
+        ("Stiffness range", f"{fmt(low)} to {fmt(high, u['stiffness'])} "
                             + ("(informed samples)" if result.observable.any() else "(all samples: none is informed)")),
     ]
-    expected = None if ident is None else ident.expected_inertia
-    for name in ("inertia", "damping"):
-        v = s[name]
-        if v is None:
-            text = "not needed (direct variant: the elastic torque is measured)"
-        else:
-            text = fmt_interval(v, u[name], ci)
-            if (ident is not None and ident.given) or v["lo"] == v["hi"]:
-                text = f"{fmt(v['median'], u[name])} (given, not identified)"
-        if name == "inertia" and expected:
-            lo, hi = expected
-            text += f"; {'within' if ident.inertia_in_expected_range else 'OUTSIDE'} the expected {lo:g}–{hi:g}"
-        lines.append((name.capitalize(), text))
-    lines.append(("Informed by motion", f"{100 * s['observable_fraction']:.1f} % of the trial"))
-    err = s.get("reference_error")
+    rows += [(name.capitalize(), _mechanics_text(result, name)) for name in ("inertia", "damping")]
+    rows.append(("Informed by motion", f"{100 * result.observable_fraction:.1f} % of the trial"))
+    err = result.reference_error()
     if err and err.get("median") is not None:
-        lines.append(("Error vs reference", f"median {100 * err['median']:.2f} %, 90th percentile "
-                                            f"{100 * err['p90']:.2f} %, band covers it {100 * err['coverage']:.0f} %"))
-    fig.text(0.06, 0.955, "Stiffness report", fontsize=FONT["title"], weight="bold")
-    fig.text(0.06, 0.93, s["trial"], fontsize=FONT["heading"], color="0.3")
-    y = 0.89
-    for label, value in lines:
+        rows.append(("Error vs reference", f"median {100 * err['median']:.2f} %, 90th percentile "
+                                           f"{100 * err['p90']:.2f} %, band covers it {100 * err['coverage']:.0f} %"))
+    return rows
+
+
+def _informed_stiffness(result) -> tuple[Interval, float, float]:
+    """Typical stiffness over the informed samples (all samples when none is), as in ``summary.json``.
+
+    Returns
+    -------
+    median : Interval
+        Medians of the estimate and of its band's bounds, N·m/rad (N/m).
+    low, high : float
+        Smallest and largest estimate, N·m/rad (N/m).
+    """
+    obs = result.observable if np.any(result.observable) else np.ones_like(result.observable)
+    stiffness = result.stiffness[obs]
+    median = Interval(float(np.median(stiffness)), float(np.median(result.stiffness_lo[obs])),
+                      float(np.median(result.stiffness_hi[obs])))
+    return median, float(np.min(stiffness)), float(np.max(stiffness))
+
+
+def _mechanics_text(result, name: str) -> str:
+    """The summary's line for ``inertia`` or ``damping``: interval, given value or not needed."""
+    value, unit = getattr(result, name), result.trial.units[name]
+    ident = result.identification
+    if value is None:
+        text = "not needed (direct variant: the elastic torque is measured)"
+    else:
+        text = fmt_interval(value, unit, result.ci_level)
+        if (ident is not None and ident.given) or value.is_fixed:
+            text = f"{fmt(value.median, unit)} (given, not identified)"
+    expected = None if ident is None else ident.expected_inertia
+    if name == "inertia" and expected:
+        lo, hi = expected
+        text += f"; {'within' if ident.inertia_in_expected_range else 'OUTSIDE'} the expected {lo:g}–{hi:g}"
+    return text
+
+
+def _key_values(fig, rows: list[tuple[str, str]], y: float) -> float:
+    """Draw bold labels with their wrapped texts from height ``y`` down; the height reached.
+
+    Heights are fractions of the page (0 at the bottom, 1 at the top).
+    """
+    for label, value in rows:
         wrapped = textwrap.wrap(str(value), 62) or [""]
         fig.text(0.06, y, label, fontsize=10, weight="bold", va="top")
         fig.text(0.33, y, "\n".join(wrapped), fontsize=10, va="top", linespacing=1.3)
         y -= 0.0205 * len(wrapped) + 0.008
-    y -= 0.015
+    return y
+
+
+def _warning_list(fig, warnings, y: float) -> float:
+    """Draw the "Warnings" heading and one bullet per warning (``none`` without any) from height
+    ``y`` (page fraction) down; the height reached."""
     fig.text(0.06, y, "Warnings", fontsize=FONT["heading"], weight="bold", va="top")
     y -= 0.03
-    for w in s["warnings"] or ["none"]:
+    for w in warnings or ["none"]:
         wrapped = textwrap.wrap(w, 95)
         fig.text(0.08, y, "• " + "\n  ".join(wrapped), fontsize=FONT["body"], va="top", linespacing=1.3)
         y -= 0.0175 * len(wrapped) + 0.006
-    meta = list(s["metadata"].items())
-    if meta:
-        y -= 0.02
-        fig.text(0.06, y, "Metadata (from the file)", fontsize=FONT["heading"], weight="bold", va="top")
-        y -= 0.03
-        room = max(0, int((y - 0.08) / 0.017))
-        shown = meta[:room] if len(meta) <= room else meta[:max(room - 1, 0)]
-        for key, value in shown:
-            fig.text(0.08, y, textwrap.shorten(f"{key}: {value}", 110), fontsize=FONT["small"], va="top")
-            y -= 0.017
-        if len(shown) < len(meta):
-            fig.text(0.08, y, f"… {len(meta) - len(shown)} more in summary.json", fontsize=FONT["small"],
-                     style="italic", va="top")
-    return fig
+    return y
+
+
+def _metadata_list(fig, meta: list[tuple[str, str]], y: float) -> None:
+    """Draw the file's ``key: value`` metadata from height ``y`` (page fraction) down, as many
+    lines as fit above the footer, then how many more there are."""
+    if not meta:
+        return
+    y -= 0.02
+    fig.text(0.06, y, "Metadata (from the file)", fontsize=FONT["heading"], weight="bold", va="top")
+    y -= 0.03
+    room = max(0, int((y - 0.08) / 0.017))
+    shown = meta[:room] if len(meta) <= room else meta[:max(room - 1, 0)]
+    for key, value in shown:
+        fig.text(0.08, y, textwrap.shorten(f"{key}: {value}", 110), fontsize=FONT["small"], va="top")
+        y -= 0.017
+    if len(shown) < len(meta):
+        fig.text(0.08, y, f"… {len(meta) - len(shown)} more in summary.json", fontsize=FONT["small"],
+                 style="italic", va="top")
 
 
 def _stiffness_axes(ax, result, *, reference: bool = True) -> None:
