@@ -164,6 +164,38 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     -------
     Posterior
     """
+    sampler, steps, tau = _run_chain(problem, start, rng)
+    warnings = []
+    converged = bool(steps >= MIN_TAU_MULTIPLE * np.max(tau))
+    if not converged:
+        warnings.append(f"MCMC chain is only {steps / np.max(tau):.0f} autocorrelation times long "
+                        f"(fewer than {MIN_TAU_MULTIPLE}); the posterior may be rough")
+    burn = int(min(steps // 2, 3 * np.max(tau)))
+    flat = sampler.get_chain(discard=burn, flat=True)
+    thin = max(1, len(flat) // N_DRAWS)
+    noise = flat[::thin][-N_DRAWS:]
+    draws, why = _with_mechanics(problem, noise, inertia_prior, damping_prior, rng)
+    warnings += why
+    acceptance = float(np.mean(sampler.acceptance_fraction))
+    if not 0.15 <= acceptance <= 0.7:
+        warnings.append(f"MCMC acceptance fraction {acceptance:.2f} is unusual (0.15–0.7 expected)")
+    diag = McmcDiagnostics(n_walkers=N_WALKERS, n_steps=steps, burn_in=burn, thin=thin,
+                           autocorr_time=dict(zip(PARAMETERS[2:], map(float, tau))),
+                           acceptance_fraction=acceptance, converged=converged, seed=seed)
+    return Posterior(draws=draws, diagnostics=diag, warnings=tuple(warnings))
+
+
+def _run_chain(problem, start, rng: np.random.Generator):
+    """emcee over the three log noise levels, in blocks of :data:`BLOCK_STEPS` until the chain is
+    :data:`MIN_TAU_MULTIPLE` autocorrelation times long or :data:`MAX_STEPS` are run.
+
+    Returns
+    -------
+    sampler : emcee.EnsembleSampler
+    steps : int
+    tau : ndarray, shape (3,)
+        Integrated autocorrelation times, steps.
+    """
     import emcee
 
     lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
@@ -182,38 +214,33 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
     sampler = emcee.EnsembleSampler(N_WALKERS, 3, log_prob, vectorize=True, moves=moves)
     sampler.random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
-    state, steps, warnings = p0, 0, []
+    state, steps = p0, 0
     while True:
         state = sampler.run_mcmc(state, BLOCK_STEPS, progress=False)
         steps += BLOCK_STEPS
         tau = autocorr_time(sampler.get_chain())
         if steps >= MIN_TAU_MULTIPLE * np.max(tau) or steps >= MAX_STEPS:
-            break
-    converged = bool(steps >= MIN_TAU_MULTIPLE * np.max(tau))
-    if not converged:
-        warnings.append(f"MCMC chain is only {steps / np.max(tau):.0f} autocorrelation times long "
-                        f"(fewer than {MIN_TAU_MULTIPLE}); the posterior may be rough")
-    burn = int(min(steps // 2, 3 * np.max(tau)))
-    flat = sampler.get_chain(discard=burn, flat=True)
-    thin = max(1, len(flat) // N_DRAWS)
-    noise = flat[::thin][-N_DRAWS:]
+            return sampler, steps, tau
+
+
+def _with_mechanics(problem, noise: np.ndarray, inertia_prior: Prior, damping_prior: Prior,
+                    rng: np.random.Generator) -> tuple[np.ndarray, list[str]]:
+    """One draw of (m, b) from its Gaussian conditional per kept noise state, resampled by the
+    priors' weights.
+
+    Returns
+    -------
+    draws : ndarray, shape (n, 5)
+        (m, b, ln R, ln Q_s, ln Q_σ).
+    warnings : list of str
+    """
     mech = np.empty((len(noise), 2))
     for j, th in enumerate(noise):
         _, mean, cov = problem.conditional(th)
         mech[j] = rng.multivariate_normal(mean, cov)
     logw = log_prior(mech[:, 0], inertia_prior) + log_prior(mech[:, 1], damping_prior)
     if not np.any(np.isfinite(logw)):
-        warnings.append("no posterior draw of inertia and damping satisfies their priors (all ≤ 0?)")
-        keep = np.arange(len(mech))
-    else:
-        w = np.exp(logw - np.max(logw))
-        keep = rng.choice(len(mech), size=len(mech), p=w / w.sum())
-    draws = np.hstack([mech, noise])[keep]
-    acceptance = float(np.mean(sampler.acceptance_fraction))
-    if not 0.15 <= acceptance <= 0.7:
-        warnings.append(f"MCMC acceptance fraction {acceptance:.2f} is unusual (0.15–0.7 expected)")
-    names = PARAMETERS[2:]
-    diag = McmcDiagnostics(n_walkers=N_WALKERS, n_steps=steps, burn_in=burn, thin=thin,
-                           autocorr_time=dict(zip(names, map(float, tau))),
-                           acceptance_fraction=acceptance, converged=converged, seed=seed)
-    return Posterior(draws=draws, diagnostics=diag, warnings=tuple(warnings))
+        return np.hstack([mech, noise]), ["no posterior draw of inertia and damping satisfies their priors (all ≤ 0?)"]
+    w = np.exp(logw - np.max(logw))
+    keep = rng.choice(len(mech), size=len(mech), p=w / w.sum())
+    return np.hstack([mech, noise])[keep], []
