@@ -13,6 +13,8 @@ from click.testing import CliRunner
 
 from limbstiff.cli import main
 from limbstiff.gap import selection, where
+from limbstiff.gap.effects import EFFECTS
+from limbstiff.gap.kinds import Effect, TorqueEffect, remove
 from limbstiff.gap.run import diagnose
 from limbstiff.files import write_trial
 from limbstiff.protocol import Protocol
@@ -105,6 +107,50 @@ def test_sign_flip_test_and_holm():
     assert selection.sign_flip_pvalue(rng.normal(size=40), rng) > 0.01
     adj = selection.holm({"a": 0.01, "b": 0.04, "c": 0.03})
     assert adj == {"a": 0.03, "c": 0.06, "b": 0.06}
+
+
+# --- the library: effects as objects --------------------------------------------------------------
+
+def test_every_effect_knows_its_parameters_grid_and_removal():
+    from limbstiff.analysis import analyze
+    from limbstiff.gap.channels import channels_from
+    from limbstiff.gap.kinds import Scales
+    trial = simulate("ankle", seed=3, params={"duration": 8.0}, effect="time_delay",
+                     effect_params={"delay": 0.02})
+    proto = Protocol(inertia=float(trial.metadata["nominal_inertia"]),
+                     damping=float(trial.metadata["nominal_damping"]))
+    ch = channels_from(trial, analyze(trial, proto, seed=0))
+    scales = Scales.of([ch])
+    for name, eff in EFFECTS.items():
+        assert isinstance(eff, Effect) and eff.name == name and eff.description and eff.grid_reason
+        shape = eff.grid(scales)[0]
+        term = eff.evaluate(ch, shape)
+        coef = np.zeros(len(term.regressors)) if eff.local else np.ones(len(eff.amplitudes))
+        corr = remove(ch, [(eff, shape, coef)])
+        assert set(eff.params(shape, coef)) == set(shape) | set(eff.amplitudes)
+        if eff.kind == "mechanics":
+            assert corr.angle is None and corr.torque is None
+            assert corr.inertia + corr.damping == pytest.approx(ch.inertia + ch.damping + 1.0)
+        elif eff.corrects_channel:
+            assert (corr.angle is None) != (corr.torque is None)
+        else:
+            assert corr.angle is None and corr.torque is not None
+    # the delay's correction advances the recorded torque by the delay
+    corr = EFFECTS["time_delay"].correction(ch, {"delay": 0.02}, np.zeros(0))
+    k = int(round(0.02 * ch.fs))
+    np.testing.assert_allclose(corr.torque[:-k], ch.raw_torque[k:], atol=1e-9)
+
+
+def test_a_new_effect_is_one_object():
+    # a made-up torque ∝ y³ (a hardening spring is a stiffness, so it is absorbed): the library is a
+    # plain dict of objects, and diagnose asks the objects for everything
+    cubic = TorqueEffect(name="cubic", description="a torque ∝ y³", amplitudes=("coefficient",),
+                         grid=lambda s: [{}], grid_reason="no shape parameter",
+                         torque=lambda ch, sh: ch.angle ** 3)
+    trial = simulate("ankle", seed=5, params={"duration": 8.0}, effect="coulomb_friction")
+    d = diagnose([trial], seed=0, effects={"cubic": cubic, "coulomb_friction": EFFECTS["coulomb_friction"]})
+    assert {c.effect for c in d.candidates} == {"cubic", "coulomb_friction"}
+    assert "coefficient" in d.candidate("cubic").params or d.candidate("cubic").evidence["absorbed"]
 
 
 # --- every candidate on a small seeded trial --------------------------------------------------------

@@ -9,7 +9,8 @@ import pytest
 
 from limbstiff.simulate import (EFFECTS, SCENARIOS, describe_scenarios, effect_defaults,
                                 simulate, simulate_with_truth, trial_scales)
-from limbstiff.simulate.effects import REFERENCE_SCALES, dahl_along, play
+from limbstiff.effects import dahl, dahl_along, delay_signal, play
+from limbstiff.simulate.effects import REFERENCE_SCALES
 from limbstiff.simulate.excitation import (chirp, draw_random_steps, gate, multisine,
                                            smoothed_steps)
 from limbstiff.simulate.paper import EXP_SPRINGS
@@ -491,3 +492,18 @@ def test_dahl_along_saturates():
     y = np.concatenate([np.linspace(0, 0.05, 500), np.linspace(0.05, -0.05, 1000)])
     z = dahl_along(y, 1.0, 0.005)
     assert z[499] == pytest.approx(1.0, abs=1e-3) and z[-1] == pytest.approx(-1.0, abs=1e-3)
+
+
+def test_dahl_forms_agree():
+    # the simulator's relaxation form and the diagnosis's recursion are one solution, up to rounding
+    rng = np.random.default_rng(7)
+    y = np.cumsum(rng.normal(0.0, 1e-3, 2000))
+    np.testing.assert_allclose(dahl_along(y, 2.5, 0.004), 2.5 * dahl(y, 0.004), rtol=0, atol=1e-12)
+
+
+def test_delay_signal():
+    t = np.arange(10) * 0.1
+    x = t ** 2
+    np.testing.assert_allclose(delay_signal(t, x, 0.2)[2:], x[:-2], atol=1e-15)
+    assert delay_signal(t, x, 0.2)[0] == x[0] and delay_signal(t, x, 0.2, before=-1.0)[0] == -1.0
+    np.testing.assert_allclose(delay_signal(t, x, -0.2)[:-2], x[2:], atol=1e-15)

@@ -4,7 +4,8 @@ effect causes it, and how far the gap shrinks once that effect is added, on held
 Modules (one idea each): ``channels`` (the filtered signals of a trial with the nominal model),
 ``nominal`` (the nominal model, its rows, windows and nuisance, the gap metric), ``where`` (the
 residual in time, frequency and regime; whiteness and cross-correlation with bounds),
-``effects`` (the candidate library), ``crossval`` (fitting on training folds, scoring held
+``kinds`` (how an effect enters the model), ``effects`` (the candidate library), ``residual`` (a
+model's residual and where it lies, per trial), ``crossval`` (fitting on training folds, scoring held
 out), ``selection`` (greedy selection with a sign-flip test, intervals, ambiguities), ``result``
 (``Diagnosis``, ``Candidate``) and ``run`` (:func:`diagnose`, :func:`diagnose_files`).
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import nominal
 from .channels import Channels
-from .effects import Effect
+from .kinds import Effect
 
 #: Largest channel shift a candidate may apply, s (``effects.TIME_DELAYS_S``).
 MAX_SHIFT_S = 0.05
@@ -140,7 +140,7 @@ def _rows_matrix(arrays, rows):
 def _base(problem: Problem, components) -> list[_TrialBase]:
     out = []
     signature = tuple((e.name, tuple(sorted(s.items()))) for e, s in components
-                      if e.kind == "measurement" and not e.local)
+                      if e.corrects_channel)
     for ch0, lay in zip(problem.channels, problem.layouts):
         ch, regs, local = compose(ch0, components)
         rows = lay.rows

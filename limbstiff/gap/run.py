@@ -20,25 +20,24 @@ from ..analysis import analyze, range_of_motion
 from ..errors import LimbstiffError, TrialError
 from ..protocol import Protocol
 from ..trial import Trial
-from . import crossval, nominal, selection, where
+from . import crossval, nominal, residual, selection
 from .channels import Channels, channels_from
-from .effects import EFFECTS, remove
+from .effects import EFFECTS
+from .kinds import remove
 from .result import Candidate, Diagnosis
 
 #: Held-out blocks of a single trial.
 BLOCKS = 5
-#: Confidence level of the "where" bounds.
-WHERE_LEVEL = 0.95
-#: Cross-correlation lags, s: beyond the longest reflex loop (80 ms) and channel shift (50 ms).
-XCORR_LAG_S = 0.2
 
 
 def _median_stiffness(result) -> float:
+    """Median estimated stiffness over the observable samples (all when none is), N·m/rad."""
     obs = result.observable if np.any(result.observable) else np.ones_like(result.observable)
     return float(np.median(result.stiffness[obs]))
 
 
 def _corrected_trial(trial: Trial, ch: Channels, corr) -> Trial:
+    """The trial with the recorded channels of a :class:`~.kinds.Correction` put in."""
     changes = {}
     if corr.angle is not None:
         changes["angle"] = corr.angle
@@ -81,66 +80,6 @@ def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_t
     return {"per_trial": per, "median_relative": float(np.median(rel)) if rel else None}
 
 
-def _full_residual(ch: Channels, components, coef: np.ndarray):
-    """Full-rate residual of a model (nuisance refitted at full rate), with its layout."""
-    lay = nominal.layout(ch, decimation=1)
-    chc, regs, local = crossval.compose(ch, components)
-    rows = lay.rows
-    z = chc.elastic_target()[rows]
-    if regs:
-        z = z - coef @ np.vstack(regs)[:, rows]
-    loc = np.vstack(local)[:, rows].T if local else None
-    proj = nominal.projector(chc.angle[rows], chc.time[rows], lay, loc)
-    return lay, proj.project(z)
-
-
-def _where(ch: Channels, lay, residual: np.ndarray, decimation: int) -> dict:
-    rows = lay.rows
-    f = ch.torque[rows]
-    dev_power = float(np.mean((f - f.mean()) ** 2))
-    y, v = ch.angle[rows], ch.velocity[rows]
-    t = ch.time[rows]
-    # time: gap per window, change points of its logarithm
-    wins = np.unique(lay.window)
-    win_gap = np.array([np.mean(residual[lay.window == w] ** 2) / dev_power for w in wins])
-    starts = [float(t[lay.window == w][0]) for w in wins]
-    cps = where.change_points(np.log(np.maximum(win_gap, 1e-300)))
-    time = {"window_s": lay.window_s, "start_s": starts, "end_s": float(t[-1]), "gap": win_gap.tolist(),
-            "change_points_s": [starts[i] for i in cps]}
-    freq = where.spectrum(residual, f, y, ch.fs, max_hz=min(0.5 * ch.fs, 2 * nominal.effective_cutoff(ch)),
-                          level=WHERE_LEVEL)
-    # regimes
-    eff = where.effective_fraction(residual[::decimation] ** 2)
-    # "near zero": below three velocity-noise levels, or 1 % of the RMS speed on noise-free data
-    still = max(3.0 * ch.velocity_noise, 0.01 * float(np.sqrt(np.mean(v ** 2))))
-    regime = {}
-    lab, names, rng = where.speed_bins(v, still)
-    regime["speed"] = where.binned_gap(residual, dev_power, lab, names, level=WHERE_LEVEL, effective=eff / decimation,
-                                       edges=rng)
-    near = where.reversal_mask(v, int(round(0.125 * ch.fs / ch.motion_hz)), still)
-    regime["reversal"] = where.binned_gap(residual, dev_power, near.astype(int),
-                                          ["away from reversals", "within 1/8 period of a reversal"],
-                                          level=WHERE_LEVEL, effective=eff / decimation)
-    for key, x in (("angle", y), ("torque", f), ("stiffness", ch.stiffness[rows])):
-        lab, rng = where.quantile_bins(x, 5)
-        regime[key] = where.binned_gap(residual, dev_power, lab, [f"{lo:.4g}–{hi:.4g}" for lo, hi in rng],
-                                       level=WHERE_LEVEL, effective=eff / decimation, edges=rng)
-    # whiteness at the rows' rate, against what filtered white noise would show
-    dec = residual[::decimation]
-    max_lag = int(min(20, len(dec) // 5))
-    grid = np.linspace(0.0, 0.5 * ch.fs, 4097)
-    ref = where.filtered_noise_acf(nominal.filter_power(grid, ch), grid, np.arange(max_lag + 1) * decimation / ch.fs)
-    white = where.whiteness(dec, max_lag=max_lag, level=WHERE_LEVEL, reference=ref)
-    white["sample_period_s"] = decimation / ch.fs
-    white["note"] = ("reference: autocorrelation of white noise through the analysis's low-pass; the test is on "
-                     "the departure from it")
-    xcorr = {"velocity": where.cross_correlation(residual, v, max_lag=int(XCORR_LAG_S * ch.fs),
-                                                 sample_period=1.0 / ch.fs, level=WHERE_LEVEL),
-             "angle": where.cross_correlation(residual, y, max_lag=int(XCORR_LAG_S * ch.fs),
-                                              sample_period=1.0 / ch.fs, level=WHERE_LEVEL)}
-    return {"time": time, "frequency": freq, "regime": regime, "whiteness": white, "cross_correlation": xcorr}
-
-
 def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed: int = 0,
              inertia: float | None = None, damping: float | None = None, blocks: int = BLOCKS,
              effects: dict | None = None, results: Sequence | None = None) -> Diagnosis:
@@ -181,126 +120,187 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     except ValueError as exc:
         raise TrialError(str(exc).split(":")[0], str(exc).split(":", 1)[1].strip()) from None
     rng = np.random.default_rng(seed)
-    sel = selection.select(problem, effects, rng=rng)
-    level = protocol.ci_level
-    den = float(np.sum(problem.deviation ** 2))
-    nominal_held = float(sel.nominal.unit_rss.sum())
-    nominal_train = float(sel.nominal.rss_train)
-    chosen = [e.name for e, _ in sel.chosen]
-    mech = SimpleNamespace(inertia=float(np.median([c.inertia for c in channels])),
-                           damping=float(np.median([c.damping for c in channels])))
-
-    candidates = []
-    for name, sc in sel.first.items():
-        ev, eff = sc.evaluation, effects[name]
-        params = eff.params(ev.shape, ev.coef, mech)
-        if eff.local:
-            params["rms"] = float(np.sqrt(np.mean(ev.fitted ** 2)))
-        later = [s[name] for s in sel.steps[1:] if name in s]
-        evidence = {"absorbed": ev.absorbed, "identifiable_share": ev.share,
-                    "p_value": sc.p_value, "p_adjusted": sc.p_adjusted, "significant": sc.significant,
-                    "relevant": sc.relevant, "units": int(len(sc.gains)),
-                    "units_improved": float(np.mean(sc.gains > 0)), "scheme": ev.scheme,
-                    "fold_params": [eff.params(s, np.zeros(len(ev.coef)), None) for s in ev.fold_shapes
-                                    if s is not None] if eff.grid(selection.problem_scales(problem)) != [{}] else None,
-                    "chosen": name in chosen, "step": chosen.index(name) + 1 if name in chosen else None,
-                    "shrink_after_chosen": later[-1].shrink if later and name not in chosen else None,
-                    "grid": eff.grid_reason}
-        if ev.absorbed:
-            evidence["note"] = (f"absorbed: at most {100 * (ev.share or 0):.2g} % of its torque lies outside what the "
-                                "elastic term (a cubic spring per window) takes up, so it cannot be told from a "
-                                "stiffness in these data and is not fitted")
-        if ev.scheme == "interleaved":
-            evidence["note"] = ("no parameter carries over to other data: scored by predicting every fifth "
-                                "motion period from the rest of the same recording, the nominal model alike")
-        fitted = [[(eff, ev.shape, ev.coef)] for _ in trials]
-        bias = stiffness_change(trials, results, channels, protocol, fitted, seed)
-        candidates.append(Candidate(
-            effect=name, description=eff.description, params=params, gap_train=ev.rss_train / den,
-            gap_heldout=float(ev.unit_rss.sum()) / den, shrink_heldout=sc.shrink,
-            shrink_interval=selection.shrink_interval(sc.reference, ev.unit_rss, rng, level=level),
-            evidence=evidence, stiffness_bias=bias))
-    candidates.sort(key=lambda c: -c.shrink_heldout)
-
-    # the model with every chosen effect
-    final = sel.final
-    fitted_all = []
-    k = 0
-    for step, (eff, shape) in enumerate(sel.chosen):
-        if eff.local:          # refitted as nuisance in the model: take its fit when it was chosen
-            coef = sel.steps[step][eff.name].evaluation.coef
-        else:
-            n_coef = 0 if eff.kind == "measurement" else 1
-            coef = final.base_coef[k:k + n_coef]
-            k += n_coef
-        fitted_all.append((eff, shape, coef))
-    after = {"effects": chosen, "gap_train": final.rss_train / den,
-             "gap_heldout": float(final.unit_rss.sum()) / den,
-             "shrink_heldout": 1.0 - float(final.unit_rss.sum()) / nominal_held if nominal_held > 0 else None,
-             "shrink_heldout_interval": list(selection.shrink_interval(sel.nominal.unit_rss, final.unit_rss, rng,
-                                                                    level=level)),
-             "params": {eff.name: eff.params(shape, coef, mech) for eff, shape, coef in fitted_all}}
-    if any(e.local for e, _ in sel.chosen):
-        after["note"] = ("sensor drift, once chosen, is refitted on every scored block like the elastic terms; "
-                         "the held-out gap above scores the other effects only")
-    after["stiffness_bias"] = stiffness_change(trials, results, channels, protocol,
-                                               [fitted_all] * len(trials), seed) if fitted_all else None
-
-    where_out, series = {}, {}
-    for i, (ch, lay) in enumerate(zip(channels, problem.layouts)):
-        full_lay, res0 = _full_residual(ch, [], np.zeros(0))
-        w = _where(ch, full_lay, res0, lay.decimation)
-        where_out[ch.name] = w
-        s = {"time": ch.time[full_lay.rows], "residual": res0, "torque": ch.torque[full_lay.rows],
-             "where": w}
-        if sel.chosen:
-            _, res1 = _full_residual(ch, sel.chosen, final.base_coef)
-            s["residual_after"] = res1
-            s["where_after"] = _where(ch, full_lay, res1, lay.decimation)
-        series[ch.name] = s
-
-    trials_info = []
-    for i, (t, r, ch, lay) in enumerate(zip(trials, results, channels, problem.layouts)):
-        sel_i = problem.trial == i
-        trials_info.append({"trial": t.name, "source": t.source, "source_sha256": t.source_sha256,
-                            "fs_hz": t.fs, "duration_s": t.duration, "variant": r.variant,
-                            "inertia": ch.inertia, "damping": ch.damping, "mechanics": ch.mechanics,
-                            "cutoff_hz": ch.cutoff_hz, "motion_hz": ch.motion_hz, "rows": int(len(lay.rows)),
-                            "decimation": lay.decimation, "windows": int(lay.window.max()) + 1,
-                            "stiffness_median": _median_stiffness(r),
-                            "noise_floor": nominal.noise_floor(ch, lay),
-                            "gap_train": float(np.sum(sel.nominal.residual[sel_i] ** 2)
-                                               / np.sum(problem.deviation[sel_i] ** 2))})
+    run = _Run(trials, results, channels, protocol, seed, problem, selection.select(problem, effects, rng=rng))
+    candidates = sorted((_candidate(run, name, scored, effects[name], rng) for name, scored in run.sel.first.items()),
+                        key=lambda c: -c.shrink_heldout)
+    after = _after(run, rng)
+    where_out, series = residual.series(channels, problem.layouts, run.sel.chosen, run.sel.final.base_coef)
+    trials_info = _trials_info(run)
     floor = float(np.average([t["noise_floor"] for t in trials_info],
                              weights=[np.sum(problem.deviation[problem.trial == i] ** 2) for i in range(len(trials))]))
-
-    steps = [{"step": i + 1, "added": chosen[i] if i < len(chosen) else None,
-              "candidates": {n: {"shrink_heldout": s.shrink, "share_of_nominal_gap": s.share_of_nominal,
-                                 "p_value": s.p_value, "p_adjusted": s.p_adjusted,
-                                 "significant": s.significant, "relevant": s.relevant}
-                             for n, s in step.items()}} for i, step in enumerate(sel.steps)]
-    notes = _notes(channels, problem, chosen)
-    heldout = {"scheme": "leave-one-trial-out" if problem.scheme == "trials" else f"{problem.n_folds} contiguous blocks",
-               "folds": problem.n_folds, "guard_s": problem.guard_s if problem.scheme == "blocks" else 0.0,
-               "units": problem.n_units, "unit_s": [lay.unit_s for lay in problem.layouts],
-               "window_s": [lay.window_s for lay in problem.layouts]}
-    settings = {"alpha": selection.ALPHA, "relevance": selection.RELEVANCE, "permutations": selection.PERMUTATIONS,
-                "bootstrap": selection.BOOTSTRAP, "collinear": selection.COLLINEAR, "ci_level": level,
-                "window_periods": nominal.WINDOW_PERIODS, "units_per_window": nominal.UNITS_PER_WINDOW,
-                "nuisance": list(nominal.NUISANCE), "test": "one-sided sign-flip test of the summed held-out gains "
-                "over units, Holm-corrected over the candidates of each step",
-                "relevance_reason": "an effect must remove at least this share of the nominal model's held-out "
-                                    "gap, at the step it is added (see limbstiff.diagnose.selection.RELEVANCE)"}
-    warnings = [w for r in results for w in r.warnings]
+    notes = _notes(channels, problem, run.chosen)
     notes.insert(0, "gap: the nominal model fits nothing of its own but the elastic terms, which are refitted on "
                     "whatever is scored, so its held-out gap equals its in-sample gap"
                  + ("; its m and b were identified from these same data" if any(c.mechanics == "identified"
                                                                               for c in channels) else ""))
-    return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC, gap_train=nominal_train / den,
-                     gap_heldout=nominal_held / den, noise_floor=floor, heldout=heldout, where=where_out,
-                     candidates=tuple(candidates), diagnosis=tuple(chosen), steps=tuple(steps),
-                     ambiguities=tuple(sel.ambiguities), after=after, settings=settings, notes=tuple(notes),
-                     warnings=tuple(warnings), seed=seed, series=series)
+    return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC, gap_train=float(run.sel.nominal.rss_train) / run.den,
+                     gap_heldout=run.nominal_heldout / run.den, noise_floor=floor, heldout=_heldout(problem),
+                     where=where_out, candidates=tuple(candidates), diagnosis=tuple(run.chosen),
+                     steps=tuple(_steps(run)), ambiguities=tuple(run.sel.ambiguities), after=after,
+                     settings=_settings(protocol.ci_level), notes=tuple(notes),
+                     warnings=tuple(w for r in results for w in r.warnings), seed=seed, series=series)
+
+
+@dataclass(frozen=True)
+class _Run:
+    """What the steps of :func:`diagnose` share: the trials, their analyses and channels, the
+    protocol and seed of the re-analyses, the held-out problem and the selection made on it."""
+
+    trials: list
+    results: list
+    channels: list
+    protocol: Protocol
+    seed: int
+    problem: crossval.Problem
+    sel: selection.Selection
+
+    @property
+    def den(self) -> float:
+        """Σ (f − f̄)² over the rows, the gap's denominator (N·m²)."""
+        return float(np.sum(self.problem.deviation ** 2))
+
+    @property
+    def nominal_heldout(self) -> float:
+        """The nominal model's held-out RSS (N·m²)."""
+        return float(self.sel.nominal.unit_rss.sum())
+
+    @property
+    def chosen(self) -> list[str]:
+        """Names of the chosen effects, in the order they were added."""
+        return [e.name for e, _ in self.sel.chosen]
+
+    @property
+    def mech(self) -> SimpleNamespace:
+        """The nominal m and b (medians over the trials), for the effects' parameters."""
+        return SimpleNamespace(inertia=float(np.median([c.inertia for c in self.channels])),
+                               damping=float(np.median([c.damping for c in self.channels])))
+
+    def stiffness_change(self, fitted: list) -> dict:
+        """:func:`stiffness_change` of the same fitted effects removed from every trial."""
+        return stiffness_change(self.trials, self.results, self.channels, self.protocol,
+                                [fitted] * len(self.trials), self.seed)
+
+
+def _candidate(run: _Run, name: str, scored, eff, rng: np.random.Generator) -> Candidate:
+    """One candidate effect as fitted and scored against the nominal model (step 1).
+
+    ``scored``: its :class:`selection.Scored`; ``eff``: the effect; ``rng`` draws its interval.
+    """
+    ev = scored.evaluation
+    params = eff.params(ev.shape, ev.coef, run.mech)
+    if eff.local:
+        params["rms"] = float(np.sqrt(np.mean(ev.fitted ** 2)))
+    evidence = _evidence(run, name, scored, eff)
+    bias = run.stiffness_change([(eff, ev.shape, ev.coef)])
+    return Candidate(
+        effect=name, description=eff.description, params=params, gap_train=ev.rss_train / run.den,
+        gap_heldout=float(ev.unit_rss.sum()) / run.den, shrink_heldout=scored.shrink,
+        shrink_interval=selection.shrink_interval(scored.reference, ev.unit_rss, rng, level=run.protocol.ci_level),
+        evidence=evidence, stiffness_bias=bias)
+
+
+def _evidence(run: _Run, name: str, scored, eff) -> dict:
+    """How a candidate was judged: test, scheme, step, shapes per fold, grid, notes."""
+    ev, chosen = scored.evaluation, run.chosen
+    later = [s[name] for s in run.sel.steps[1:] if name in s]
+    shaped = eff.grid(selection.problem_scales(run.problem)) != [{}]
+    evidence = {"absorbed": ev.absorbed, "identifiable_share": ev.share,
+                "p_value": scored.p_value, "p_adjusted": scored.p_adjusted, "significant": scored.significant,
+                "relevant": scored.relevant, "units": int(len(scored.gains)),
+                "units_improved": float(np.mean(scored.gains > 0)), "scheme": ev.scheme,
+                "fold_params": [eff.params(s, np.zeros(len(ev.coef)), None) for s in ev.fold_shapes
+                                if s is not None] if shaped else None,
+                "chosen": name in chosen, "step": chosen.index(name) + 1 if name in chosen else None,
+                "shrink_after_chosen": later[-1].shrink if later and name not in chosen else None,
+                "grid": eff.grid_reason}
+    if ev.absorbed:
+        evidence["note"] = (f"absorbed: at most {100 * (ev.share or 0):.2g} % of its torque lies outside what the "
+                            "elastic term (a cubic spring per window) takes up, so it cannot be told from a "
+                            "stiffness in these data and is not fitted")
+    if ev.scheme == "interleaved":
+        evidence["note"] = ("no parameter carries over to other data: scored by predicting every fifth "
+                            "motion period from the rest of the same recording, the nominal model alike")
+    return evidence
+
+
+def _chosen_fits(sel: selection.Selection) -> list:
+    """The chosen effects as (Effect, shape, amplitudes) of the model with all of them.
+
+    The final model's amplitude vector holds each effect's amplitudes in the order chosen; a
+    local effect is refitted as nuisance in that model, so its fit when it was chosen is taken.
+    """
+    fitted, k = [], 0
+    for step, (eff, shape) in enumerate(sel.chosen):
+        if eff.local:
+            coef = sel.steps[step][eff.name].evaluation.coef
+        else:
+            coef = sel.final.base_coef[k:k + len(eff.amplitudes)]
+            k += len(eff.amplitudes)
+        fitted.append((eff, shape, coef))
+    return fitted
+
+
+def _after(run: _Run, rng: np.random.Generator) -> dict:
+    """The model with every chosen effect: its gap, shrinkage, parameters and stiffness bias."""
+    final, nominal_held, den = run.sel.final, run.nominal_heldout, run.den
+    fitted = _chosen_fits(run.sel)
+    after = {"effects": run.chosen, "gap_train": final.rss_train / den,
+             "gap_heldout": float(final.unit_rss.sum()) / den,
+             "shrink_heldout": 1.0 - float(final.unit_rss.sum()) / nominal_held if nominal_held > 0 else None,
+             "shrink_heldout_interval": list(selection.shrink_interval(run.sel.nominal.unit_rss, final.unit_rss, rng,
+                                                                    level=run.protocol.ci_level)),
+             "params": {eff.name: eff.params(shape, coef, run.mech) for eff, shape, coef in fitted}}
+    if any(e.local for e, _ in run.sel.chosen):
+        after["note"] = ("sensor drift, once chosen, is refitted on every scored block like the elastic terms; "
+                         "the held-out gap above scores the other effects only")
+    after["stiffness_bias"] = run.stiffness_change(fitted) if fitted else None
+    return after
+
+
+def _trials_info(run: _Run) -> list[dict]:
+    """One summary per trial: source, sampling, nominal model, layout, stiffness, noise floor, gap."""
+    problem, out = run.problem, []
+    for i, (t, r, ch, lay) in enumerate(zip(run.trials, run.results, run.channels, problem.layouts)):
+        sel_i = problem.trial == i
+        out.append({"trial": t.name, "source": t.source, "source_sha256": t.source_sha256,
+                    "fs_hz": t.fs, "duration_s": t.duration, "variant": r.variant,
+                    "inertia": ch.inertia, "damping": ch.damping, "mechanics": ch.mechanics,
+                    "cutoff_hz": ch.cutoff_hz, "motion_hz": ch.motion_hz, "rows": int(len(lay.rows)),
+                    "decimation": lay.decimation, "windows": int(lay.window.max()) + 1,
+                    "stiffness_median": _median_stiffness(r),
+                    "noise_floor": nominal.noise_floor(ch, lay),
+                    "gap_train": float(np.sum(run.sel.nominal.residual[sel_i] ** 2)
+                                       / np.sum(problem.deviation[sel_i] ** 2))})
+    return out
+
+
+def _steps(run: _Run) -> list[dict]:
+    """Every selection step: the effect added and every candidate's score and test."""
+    chosen = run.chosen
+    return [{"step": i + 1, "added": chosen[i] if i < len(chosen) else None,
+             "candidates": {n: {"shrink_heldout": s.shrink, "share_of_nominal_gap": s.share_of_nominal,
+                                "p_value": s.p_value, "p_adjusted": s.p_adjusted,
+                                "significant": s.significant, "relevant": s.relevant}
+                            for n, s in step.items()}} for i, step in enumerate(run.sel.steps)]
+
+
+def _heldout(problem: crossval.Problem) -> dict:
+    """The held-out scheme: folds, guard (s), units, unit and window lengths (s)."""
+    return {"scheme": "leave-one-trial-out" if problem.scheme == "trials" else f"{problem.n_folds} contiguous blocks",
+            "folds": problem.n_folds, "guard_s": problem.guard_s if problem.scheme == "blocks" else 0.0,
+            "units": problem.n_units, "unit_s": [lay.unit_s for lay in problem.layouts],
+            "window_s": [lay.window_s for lay in problem.layouts]}
+
+
+def _settings(level: float) -> dict:
+    """The settings of the selection, the nominal model and the test (confidence ``level``)."""
+    return {"alpha": selection.ALPHA, "relevance": selection.RELEVANCE, "permutations": selection.PERMUTATIONS,
+            "bootstrap": selection.BOOTSTRAP, "collinear": selection.COLLINEAR, "ci_level": level,
+            "window_periods": nominal.WINDOW_PERIODS, "units_per_window": nominal.UNITS_PER_WINDOW,
+            "nuisance": list(nominal.NUISANCE), "test": "one-sided sign-flip test of the summed held-out gains "
+            "over units, Holm-corrected over the candidates of each step",
+            "relevance_reason": "an effect must remove at least this share of the nominal model's held-out "
+                                "gap, at the step it is added (see limbstiff.gap.selection.RELEVANCE)"}
 
 
 def _notes(channels, problem, chosen) -> list[str]:

@@ -25,7 +25,7 @@ from itertools import product
 import numpy as np
 
 from . import crossval
-from .effects import Effect
+from .kinds import Effect, Scales
 
 #: Family-wise error rate of a selection step (Holm over the candidates).
 ALPHA = 0.05
@@ -193,8 +193,8 @@ def _score(problem, base, base_eval, effect: Effect, rng, bases, nominal_total: 
     return Scored(ev, ref, gains, shrink, sign_flip_pvalue(gains, rng), share)
 
 
-def problem_scales(problem):
-    from .effects import Scales
+def problem_scales(problem) -> Scales:
+    """The scales of the problem's trials that set the effects' grids (cached on the problem)."""
     key = ("scales",)
     if key not in problem.cache:
         problem.cache[key] = Scales.of(problem.channels)

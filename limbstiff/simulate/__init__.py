@@ -101,38 +101,67 @@ def simulate_with_truth(scenario: str, *, seed: int = 0,
     check_common(what, p)
     rng = np.random.default_rng(seed)
     setup = sc.build(p, rng)
-    fs, duration = p["fs"], p["duration"]
+    eff, ep, built = _effect_for(setup, p, effect, effect_params)
+    term = built if isinstance(built, DynamicsTerm) else NO_EFFECT
+    truth = run(setup, term, p["fs"], p["duration"])
+    if term.delay:
+        ep["delay"] = truth["delay"]
+    measurement = built if isinstance(built, Measurement) else None
+    angle, channels = _recorded(sc, p, setup, truth, measurement, rng)
+    metadata = _metadata(sc, seed, p, eff, ep, setup, term, truth)
+    name = sc.name if eff is None else f"{sc.name}-{eff.name}"
+    trial = Trial(name=name, time=truth["time"], angle=angle, torque=channels["torque"],
+                  elastic_torque=channels.get("elastic_torque"),
+                  stiffness_true=truth["stiffness"], kind=sc.kind, metadata=metadata)
+    return trial, truth
 
-    term, measurement, ep, eff = NO_EFFECT, None, {}, None
+
+def _effect_for(setup, p: Mapping[str, float], effect: str | None,
+                effect_params: Mapping[str, float] | None) -> tuple:
+    """The effect, its parameters and what it adds to the simulation.
+
+    Parameters the caller did not give are sized on the scenario's nominal trial (run once,
+    only when the effect's defaults depend on it).
+
+    Returns
+    -------
+    eff : Effect or None
+    params : dict of str to float
+    built : DynamicsTerm, Measurement or None
+    """
     if effect is None:
         if effect_params:
             raise ValueError("effect parameters given without an effect")
+        return None, {}, None
+    eff = _lookup_effect(effect)
+    given = merge_params(f"effect '{eff.name}'", eff.defaults, effect_params)
+    given = {k: given[k] for k in (effect_params or {})}
+    if set(given) >= set(eff.defaults):
+        ep = given
+    elif not eff.scaled:
+        ep = {**eff.defaults, **given}
     else:
-        eff = _lookup_effect(effect)
-        given = merge_params(f"effect '{eff.name}'", eff.defaults, effect_params)
-        given = {k: given[k] for k in (effect_params or {})}
-        if set(given) >= set(eff.defaults):
-            ep = given
-        elif not eff.scaled:
-            ep = {**eff.defaults, **given}
-        else:
-            nominal = run(setup, NO_EFFECT, fs, duration)
-            ep = {**eff.defaults_for(trial_scales(nominal)), **given}
-        built = eff.build(ep)
-        if isinstance(built, DynamicsTerm):
-            term = built
-        else:
-            measurement = built
+        nominal = run(setup, NO_EFFECT, p["fs"], p["duration"])
+        ep = {**eff.defaults_for(trial_scales(nominal)), **given}
+    return eff, ep, eff.build(ep)
 
-    truth = run(setup, term, fs, duration)
-    if term.delay:
-        ep["delay"] = truth["delay"]
+
+def _recorded(sc: Scenario, p: Mapping[str, float], setup, truth: dict,
+              measurement: Measurement | None, rng: np.random.Generator) -> tuple:
+    """What the sensors record of the true signals: measurement effect, torque noise, encoder.
+
+    Returns
+    -------
+    angle : ndarray, shape (n,), rad (m)
+    channels : dict
+        ``torque`` and, when the set-up records it, ``elastic_torque``, shape (n,), N·m (N).
+    """
     t = truth["time"]
     angle = truth["angle"].copy()
     channels = {"torque": truth["external_torque"].copy()}
     if setup.record_elastic:
         channels["elastic_torque"] = truth["elastic_torque"].copy()
-    if isinstance(measurement, Measurement):
+    if measurement is not None:
         angle, channels = measurement.apply(t, angle, channels, rng)
     noise = p["torque_noise"]
     if noise > 0:
@@ -141,13 +170,7 @@ def simulate_with_truth(scenario: str, *, seed: int = 0,
             else (2.0 * math.pi / p["encoder_counts"] if p.get("encoder_counts", 0) > 0 else 0.0))
     if step > 0:
         angle = np.round(angle / step) * step
-
-    metadata = _metadata(sc, seed, p, eff, ep, setup, term, truth)
-    name = sc.name if eff is None else f"{sc.name}-{eff.name}"
-    trial = Trial(name=name, time=t, angle=angle, torque=channels["torque"],
-                  elastic_torque=channels.get("elastic_torque"),
-                  stiffness_true=truth["stiffness"], kind=sc.kind, metadata=metadata)
-    return trial, truth
+    return angle, channels
 
 
 def simulate(scenario: str, *, seed: int = 0, params: Mapping[str, float] | None = None,

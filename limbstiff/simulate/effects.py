@@ -12,6 +12,13 @@ about its mean, rad; ``stiffness``: smallest σ, N·m/rad — see ``Scenario.sca
 effect is clearly visible but physiological whatever the joint. The fractions and the
 reasoning are given for each effect below; ``Effect.defaults`` shows the values for the
 human elbow (``REFERENCE_SCALES``). Sizes are rounded to three significant figures.
+
+The physics shared with the diagnosis (play, Dahl hysteresis, channel delay, Coulomb friction,
+gravity) is in :mod:`limbstiff.effects`. Two effects are deliberately simulated in another
+form than the diagnosis fits them: the reflex reads the true delayed velocity (analytic for a
+position drive, the integrated history for a torque drive) where the diagnosis can only
+interpolate the filtered one, and sensor drift is *drawn* here (a random walk, :func:`drift`)
+where the diagnosis *estimates* it (a spline with free coefficients).
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from ..effects import coulomb, dahl_along, dahl_rate, delay_signal, gravity, play
 from .plants import DynamicsTerm
 
 #: Scales of the ``elbow`` scenario at its defaults (seed 0): the reference for
@@ -92,7 +100,7 @@ def _positive(params: Mapping[str, float], *keys: str) -> None:
 def _coulomb(p):
     _positive(p, "smoothing_velocity")
     fc, ve = p["friction_torque"], p["smoothing_velocity"]
-    return DynamicsTerm(torque=lambda y, v, z, vd, lib: fc * lib.tanh(v / ve),
+    return DynamicsTerm(torque=lambda y, v, z, vd, lib: fc * coulomb(v, ve, lib),
                         max_damping=abs(fc) / ve)
 
 
@@ -101,40 +109,12 @@ def _quadratic(p):
     return DynamicsTerm(torque=lambda y, v, z, vd, lib: c * v * abs(v))
 
 
-def dahl_along(angle: np.ndarray, amplitude: float, characteristic_angle: float) -> np.ndarray:
-    """Dahl hysteresis torque along a prescribed angle, exact for monotone steps.
-
-    dz/dy = (F − sgn(ẏ)·z)/y_c, z(0) = 0, so on a monotone step Δy the torque relaxes
-    exponentially towards ±F over the angle y_c.
-
-    Parameters
-    ----------
-    angle : ndarray, shape (n,), rad
-    amplitude : float
-        F, N·m.
-    characteristic_angle : float
-        y_c, rad.
-
-    Returns
-    -------
-    ndarray, shape (n,), N·m
-    """
-    dy = np.diff(angle)
-    decay = np.exp(-np.abs(dy) / characteristic_angle).tolist()
-    target = (np.sign(dy) * amplitude).tolist()
-    out, z = [0.0], 0.0
-    for s, e in zip(target, decay):
-        z = s + (z - s) * e
-        out.append(z)
-    return np.array(out)
-
-
 def _hysteresis(p):
     _positive(p, "characteristic_angle")
     f, yc = p["amplitude"], p["characteristic_angle"]
     return DynamicsTerm(
         torque=lambda y, v, z, vd, lib: z,
-        state_rate=lambda y, v, z: (f * v - abs(v) * z) / yc,
+        state_rate=lambda y, v, z: dahl_rate(v, z, f, yc),
         state_along=lambda angle: dahl_along(angle, f, yc),
         max_stiffness=abs(f) / yc)
 
@@ -151,7 +131,7 @@ def _reflex(p):
 def _gravity(p):
     mgl, off = p["mgl"], p["angle_offset"]
     bias = mgl * math.sin(off)
-    return DynamicsTerm(torque=lambda y, v, z, vd, lib: bias - mgl * lib.sin(y + off),
+    return DynamicsTerm(torque=lambda y, v, z, vd, lib: bias + mgl * gravity(y, off, lib),
                         max_stiffness=abs(mgl))
 
 
@@ -165,29 +145,10 @@ def _scale_error(key):
 
 # --- measurement ----------------------------------------------------------------------------
 
-def play(x: np.ndarray, width: float) -> np.ndarray:
-    """Play (backlash) operator of total width: the output moves only once the input has
-    crossed the dead band ±width/2 around it; starts at x[0]."""
-    half = 0.5 * width
-    out, o = [], float(x[0])
-    for xi in np.asarray(x, dtype=float).tolist():
-        if xi - o > half:
-            o = xi - half
-        elif o - xi > half:
-            o = xi + half
-        out.append(o)
-    return np.array(out)
-
-
 def _backlash(p):
     _positive(p, "width")
     w = p["width"]
     return Measurement(lambda t, angle, torques, rng: (play(angle, w), torques))
-
-
-def delay_signal(t: np.ndarray, x: np.ndarray, delay: float) -> np.ndarray:
-    """x(t − delay) by linear interpolation; the first value is held before the start."""
-    return np.interp(t - delay, t, x)
 
 
 def _time_delay(p):
@@ -202,6 +163,8 @@ def drift(t: np.ndarray, rng: np.random.Generator, slope: float, random_walk: fl
 
     The random walk (intensity ``random_walk``, unit/√s) is drawn at knots ``knot_interval``
     s apart and joined by a cubic spline, so it has no content above ~1/(2·knot_interval) Hz.
+    A draw, not a model to fit: the diagnosis fits drift as a B-spline with free coefficients
+    (``limbstiff.gap.effects``), which contains this one.
 
     Returns
     -------

@@ -183,30 +183,45 @@ def integrate_torque_driven(inertia: float, internal_torque: Callable, external_
         raise ValueError("a torque drive needs a positive inertia")
     if delay_steps and delay_steps < 2:
         raise ValueError("the delay must be at least two internal steps")
-    tau, f, rate = external_torque, internal_torque, state_rate
-    inv_m, hh, h6, h8 = 1.0 / inertia, 0.5 * h, h / 6.0, h / 8.0
     n1 = n_steps + 1
-    ys, vs, acc, zs = [0.0] * n1, [0.0] * n1, [0.0] * n1, [0.0] * n1
-    y, v, z = float(initial_angle), float(initial_velocity), 0.0
-    D = 2 * int(delay_steps)          # delay in half steps
-    r1 = r2 = r3 = r4 = 0.0
-    vd1 = vd2 = vd4 = 0.0
+    out = ([0.0] * n1, [0.0] * n1, [0.0] * n1, [0.0] * n1)
+    _rk4_steps(out, 1.0 / inertia, internal_torque, external_torque, state_rate, h,
+               float(initial_angle), float(initial_velocity), 2 * int(delay_steps))
+    return dict(zip(("angle", "velocity", "acceleration", "state"), map(np.array, out)))
 
-    def delayed(j: int) -> float:
-        if j < 0:
-            return 0.0
-        p = j >> 1
-        if j & 1 == 0:
-            return vs[p]
-        return 0.5 * (vs[p] + vs[p + 1]) + h8 * (acc[p] - acc[p + 1])
 
+def _delayed_velocity(vs: list, acc: list, h8: float, j: int) -> float:
+    """ẏ at half step ``j`` of the stored history (cubic Hermite between steps; 0 before t = 0).
+
+    ``vs``, ``acc``: velocity (rad/s) and acceleration (rad/s²) at the steps so far; ``h8``: h/8.
+    """
+    if j < 0:
+        return 0.0
+    p = j >> 1
+    if j & 1 == 0:
+        return vs[p]
+    return 0.5 * (vs[p] + vs[p + 1]) + h8 * (acc[p] - acc[p + 1])
+
+
+def _rk4_steps(out: tuple, inv_m: float, f: Callable, tau: list, rate: Callable | None, h: float,
+               y: float, v: float, D: int) -> None:
+    """The RK4 loop of :func:`integrate_torque_driven`, filling ``out`` in place.
+
+    ``out`` = (angle, velocity, acceleration, state) lists of length n_steps + 1; ``inv_m``
+    1/m; ``f``, ``tau``, ``rate`` as there; ``y``, ``v`` the initial state; ``D`` the delay in
+    half steps (0: none).
+    """
+    ys, vs, acc, zs = out
+    n_steps = len(ys) - 1
+    hh, h6, h8 = 0.5 * h, h / 6.0, h / 8.0
+    z = r1 = r2 = r3 = r4 = vd1 = vd2 = vd4 = 0.0
     for i in range(n_steps):
         k = 2 * i
         ys[i], vs[i], zs[i] = y, v, z
         if D:
-            vd1 = delayed(k - D)
-            vd2 = delayed(k + 1 - D)
-            vd4 = delayed(k + 2 - D)
+            vd1 = _delayed_velocity(vs, acc, h8, k - D)
+            vd2 = _delayed_velocity(vs, acc, h8, k + 1 - D)
+            vd4 = _delayed_velocity(vs, acc, h8, k + 2 - D)
         a1 = (tau[k] - f(k, y, v, z, vd1)) * inv_m
         acc[i] = a1
         if rate is not None:
@@ -228,9 +243,8 @@ def integrate_torque_driven(inertia: float, internal_torque: Callable, external_
         z += h6 * (r1 + 2.0 * (r2 + r3) + r4)
     k = 2 * n_steps
     ys[n_steps], vs[n_steps], zs[n_steps] = y, v, z
-    acc[n_steps] = (tau[k] - f(k, y, v, z, delayed(k - D) if D else 0.0)) * inv_m
-    return {"angle": np.array(ys), "velocity": np.array(vs),
-            "acceleration": np.array(acc), "state": np.array(zs)}
+    vd = _delayed_velocity(vs, acc, h8, k - D) if D else 0.0
+    acc[n_steps] = (tau[k] - f(k, y, v, z, vd)) * inv_m
 
 
 def run(setup: Setup, term: DynamicsTerm, fs: float, duration: float) -> dict:
@@ -257,55 +271,98 @@ def run(setup: Setup, term: DynamicsTerm, fs: float, duration: float) -> dict:
     """
     n = int(round(duration * fs)) + 1
     t = np.arange(n) / fs
-    joint = setup.joint
-    m = joint.inertia * term.inertia_scale
-    b_scale = term.damping_scale
-    delay = float(term.delay)
-    h = 0.0
+    m = setup.joint.inertia * term.inertia_scale
     if setup.trajectory is not None:
-        y, v, a, jerk = setup.trajectory(t, 3)
-        z = term.state_along(y) if term.state_along is not None else np.zeros(n)
-        vd = np.zeros(n)
-        if delay > 0:
-            late = t >= delay
-            vd[late] = setup.trajectory(t[late] - delay, 1)[1]
+        motion = _position_drive(setup, term, t)
     else:
-        h, sub = internal_step(fs, m, setup.max_stiffness + term.max_stiffness,
-                               b_scale * setup.max_damping + term.max_damping)
-        n_steps = (n - 1) * sub
-        t_half = np.arange(2 * n_steps + 1) * (0.5 * h)
-        tau = np.asarray(setup.external_torque(t_half), dtype=float).tolist()
-        u = np.broadcast_to(setup.control(t_half), t_half.shape).tolist()
-        steps = 0
-        if delay > 0:
-            steps = max(2, int(round(delay / h)))
-            delay = steps * h
-        fine = integrate_torque_driven(
-            m, _internal_torque(joint, term, u), tau, h, n_steps,
-            initial_angle=setup.initial_angle, initial_velocity=setup.initial_velocity,
-            state_rate=term.state_rate, delay_steps=steps)
-        y, v, a, z = (fine[key][::sub] for key in ("angle", "velocity", "acceleration", "state"))
-        jerk = np.gradient(fine["acceleration"], h)[::sub]
-        vd = np.zeros(n)
-        if steps:
-            idx = np.arange(n) * sub - steps
-            vd[idx >= 0] = fine["velocity"][idx[idx >= 0]]
+        motion = _torque_drive(setup, term, t, fs, m)
+    return _true_signals(setup, term, t, m, motion)
+
+
+@dataclass(frozen=True)
+class _Motion:
+    """The true motion at the sample times, shape (n,) each: y (rad), ẏ, ÿ, jerk (rad/s³), the
+    effect state z, the delayed velocity ẏ(t − δ); the internal step h (s, 0 for a position
+    drive) and the delay δ actually used (s)."""
+
+    angle: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+    state: np.ndarray
+    delayed_velocity: np.ndarray
+    internal_step: float
+    delay: float
+
+
+def _position_drive(setup: Setup, term: DynamicsTerm, t: np.ndarray) -> _Motion:
+    """The imposed motion and its analytic derivatives at the times ``t`` (s, shape (n,))."""
+    n = len(t)
+    delay = float(term.delay)
+    y, v, a, jerk = setup.trajectory(t, 3)
+    z = term.state_along(y) if term.state_along is not None else np.zeros(n)
+    vd = np.zeros(n)
+    if delay > 0:
+        late = t >= delay
+        vd[late] = setup.trajectory(t[late] - delay, 1)[1]
+    return _Motion(y, v, a, jerk, z, vd, 0.0, delay)
+
+
+def _torque_drive(setup: Setup, term: DynamicsTerm, t: np.ndarray, fs: float,
+                  m: float) -> _Motion:
+    """The motion under the external torque, by RK4 on the internal grid, at the times ``t``.
+
+    ``m``: the true inertia (kg·m²). The delay is rounded to whole internal steps.
+    """
+    n = len(t)
+    delay = float(term.delay)
+    h, sub = internal_step(fs, m, setup.max_stiffness + term.max_stiffness,
+                           term.damping_scale * setup.max_damping + term.max_damping)
+    n_steps = (n - 1) * sub
+    t_half = np.arange(2 * n_steps + 1) * (0.5 * h)
+    tau = np.asarray(setup.external_torque(t_half), dtype=float).tolist()
+    u = np.broadcast_to(setup.control(t_half), t_half.shape).tolist()
+    steps = 0
+    if delay > 0:
+        steps = max(2, int(round(delay / h)))
+        delay = steps * h
+    fine = integrate_torque_driven(
+        m, _internal_torque(setup.joint, term, u), tau, h, n_steps,
+        initial_angle=setup.initial_angle, initial_velocity=setup.initial_velocity,
+        state_rate=term.state_rate, delay_steps=steps)
+    y, v, a, z = (fine[key][::sub] for key in ("angle", "velocity", "acceleration", "state"))
+    jerk = np.gradient(fine["acceleration"], h)[::sub]
+    vd = np.zeros(n)
+    if steps:
+        idx = np.arange(n) * sub - steps
+        vd[idx >= 0] = fine["velocity"][idx[idx >= 0]]
+    return _Motion(y, v, a, jerk, z, vd, h, delay)
+
+
+def _true_signals(setup: Setup, term: DynamicsTerm, t: np.ndarray, m: float,
+                  motion: _Motion) -> dict:
+    """The torques, stiffness and damping along the motion: the dict :func:`run` returns."""
+    joint, b_scale = setup.joint, term.damping_scale
+    y, v = motion.angle, motion.velocity
     u = np.broadcast_to(np.asarray(setup.control(t), dtype=float), t.shape).copy()
     elastic = joint.elastic_torque(y, u, np)
     damping_torque = b_scale * joint.damping_torque(v, np)
-    effect = (term.torque(y, v, z, vd, np) if term.torque is not None else np.zeros(n))
+    effect = (term.torque(y, v, motion.state, motion.delayed_velocity, np)
+              if term.torque is not None else np.zeros(len(t)))
     if setup.trajectory is not None:
-        external = m * a + damping_torque + elastic + effect
+        external = m * motion.acceleration + damping_torque + elastic + effect
     else:
         external = np.asarray(setup.external_torque(t), dtype=float)
     return {
-        "time": t, "angle": y, "velocity": v, "acceleration": a, "jerk": jerk, "control": u,
+        "time": t, "angle": y, "velocity": v, "acceleration": motion.acceleration,
+        "jerk": motion.jerk, "control": u,
         "elastic_torque": np.broadcast_to(elastic, t.shape).astype(float),
         "stiffness": np.broadcast_to(joint.stiffness(y, u, np), t.shape).astype(float),
         "damping": np.broadcast_to(b_scale * joint.damping_slope(v, np), t.shape).astype(float),
         "damping_torque": np.broadcast_to(damping_torque, t.shape).astype(float),
         "effect_torque": np.broadcast_to(effect, t.shape).astype(float),
-        "external_torque": external, "inertia": m, "internal_step": h, "delay": delay,
+        "external_torque": external, "inertia": m, "internal_step": motion.internal_step,
+        "delay": motion.delay,
     }
 
 
