@@ -14,8 +14,11 @@ import dataclasses
 import numpy as np
 from scipy import stats
 
+from .checks import ModelChecks, check_analysis
+from .checks.analysis import sign_hint
 from .errors import TrialError
 from .estimate import estimators, observer
+from .estimate.kalman import NoiseLevels
 from .filtered import Filtered, filter_trial
 from .mechanics.identification import Identification, identify_mechanics
 from .protocol import Protocol
@@ -92,8 +95,23 @@ def _mechanics(filtered: Filtered, protocol: Protocol, *, seed: int, where: str)
     """m and b for the external variant (with the check of the protocol's expected range)."""
     if filtered.variant != "external":
         return None
-    ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=where)
+    try:
+        ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=where)
+    except TrialError as exc:
+        hint = sign_hint(filtered)
+        raise (TrialError(exc.source, f"{exc.problem}; {hint}") if hint else exc) from None
     return dataclasses.replace(ident, expected_inertia=protocol.inertia_range)
+
+
+def _check_noise(filtered: Filtered, estimate: estimators.Estimate, ident: Identification | None) -> NoiseLevels:
+    """The Kalman model's noise levels for the checks: the estimator's, the identification's, or
+    (observers on the direct variant) fitted here."""
+    if estimate.fit.noise is not None:
+        return estimate.fit.noise
+    if ident is not None and ident.noise_levels is not None:
+        return ident.noise_levels
+    mech = {} if ident is None else {"inertia": ident.inertia.median, "damping": ident.damping.median}
+    return estimators.kalman(filtered, **mech).fit.noise
 
 
 def _estimate(filtered: Filtered, protocol: Protocol, derived: DerivedSettings,
@@ -176,10 +194,13 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
                                 f"{derived.observer_gain:.3g} (use the exact discretisation or a lower gain)")
     z = float(stats.norm.ppf(0.5 + protocol.ci_level / 2))
     half = z * np.sqrt(np.maximum(estimate.variance_with(None if ident is None else ident.covariance), 0.0))
+    checks = check_analysis(filtered, stiffness=estimate.stiffness, lo=estimate.stiffness - half,
+                            hi=estimate.stiffness + half, observable=observable, ident=ident,
+                            noise=_check_noise(filtered, estimate, ident))
     return StiffnessResult(
         trial=trial, variant=filtered.variant, estimator=protocol.estimator, stiffness=estimate.stiffness,
         stiffness_lo=estimate.stiffness - half, stiffness_hi=estimate.stiffness + half, observable=observable,
         inertia=None if ident is None else ident.inertia, damping=None if ident is None else ident.damping,
         ci_level=protocol.ci_level, seed=seed, settings=protocol.to_dict(), filtered=filtered, derived=derived,
-        fit=estimate.fit, identification=ident, warnings=_warnings(trial, ident, observable),
+        fit=estimate.fit, identification=ident, checks=checks, warnings=_warnings(trial, ident, observable),
         reference=trial.stiffness_true if reference is None else reference)

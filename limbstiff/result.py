@@ -14,6 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import __version__
+from .checks import ModelChecks
 from .estimate.estimators import EstimatorFit
 from .filtered import Filtered
 from .interval import Interval
@@ -83,6 +84,8 @@ class StiffnessResult:
         What the estimator fitted (the Kalman model's noise levels…).
     identification : Identification or None
         How m and b were obtained (None for the direct variant).
+    checks : ModelChecks or None
+        Whether the model fits the recording, and the verdict.
     warnings : tuple of str
     reference : ndarray, shape (n,), or None
         Reference stiffness (``stiffness_true`` or a calibration), for validation.
@@ -104,6 +107,7 @@ class StiffnessResult:
     derived: DerivedSettings
     fit: EstimatorFit
     identification: Identification | None = None
+    checks: ModelChecks | None = None
     warnings: tuple[str, ...] = ()
     reference: np.ndarray | None = None
 
@@ -112,6 +116,11 @@ class StiffnessResult:
         """Draws of (m, b, noise levels) when m and b were identified; None when both were given
         or for the direct variant."""
         return None if self.identification is None else self.identification.posterior
+
+    @property
+    def verdict(self) -> str | None:
+        """``ok``, ``caution`` or ``unreliable`` (:class:`~limbstiff.checks.ModelChecks`)."""
+        return None if self.checks is None else self.checks.verdict
 
     @property
     def observable_fraction(self) -> float:
@@ -193,6 +202,9 @@ class StiffnessResult:
             "damping": None if self.damping is None else self.damping.to_dict(),
             "stiffness": stiffness,
             "observable_fraction": self.observable_fraction,
+            "verdict": self.verdict,
+            "verdict_reasons": [] if self.checks is None else list(self.checks.reasons),
+            "checks": [] if self.checks is None else _jsonable([c.to_dict() for c in self.checks.checks]),
             "mcmc": _jsonable(None if self.posterior is None else self.posterior.diagnostics.to_dict()),
             "reference_error": self.reference_error(),
             "warnings": list(self.warnings),

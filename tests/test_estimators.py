@@ -96,7 +96,9 @@ def test_compiled_kernels_equal_the_reference():
                                kernels.linear_recursion.py_func(a, c, 0.3), rtol=1e-12)
     d, z, acc, vel = 0.01 * rng.standard_normal((4, n))
     args = (d, z, 1e-3, 1e-4, 1e-2, 0.0, 1.0, 1.0, 0.0, 4.0)
-    fast, ref = kernels.kalman_filter(*args, True), kernels.kalman_filter.py_func(*args, True)
+    obs = np.ones(n, dtype=bool)
+    fast = kernels.kalman_filter(*args[:2], obs, *args[2:], True)
+    ref = kernels.kalman_filter.py_func(*args[:2], obs, *args[2:], True)
     for x, y in zip(fast, ref):
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
     assert kernels.kalman_loglik(*args) == pytest.approx(fast[2], rel=1e-12)
@@ -122,7 +124,7 @@ def test_smoother_in_place_equals_the_textbook_pass():
     rng = np.random.default_rng(5)
     n, r, qs, qk = 300, 1e-3, 1e-4, 1e-2
     d, z = 0.01 * rng.standard_normal((2, n))
-    mean, cov, _ = kernels.kalman_filter(d, z, r, qs, qk, 0.0, 1.0, 1.0, 0.0, 4.0, False)
+    mean, cov, _ = kernels.kalman_filter(d, z, np.ones(n, dtype=bool), r, qs, qk, 0.0, 1.0, 1.0, 0.0, 4.0, False)
     filt_m = [np.array(m) for m in mean]
     filt_p = [np.array([[c[0], c[1]], [c[1], c[2]]]) for c in cov]
     sm, sc = kernels.rts_smoother(d, mean.copy(), cov.copy(), qs, qk)

@@ -15,7 +15,7 @@ from ..files.atomic import atomic_write_text
 from ..files.outputs import SUMMARY_JSON
 from .runner import TrialOutcome
 
-SUMMARY_COLUMNS = ("trial", "status", "error", "source", "variant", "stiffness_median", "stiffness_lo",
+SUMMARY_COLUMNS = ("trial", "status", "verdict", "error", "source", "variant", "stiffness_median", "stiffness_lo",
                    "stiffness_hi", "inertia_median", "damping_median", "observable_fraction", "resumed",
                    "output")
 #: Prefix of the ``summary.csv`` columns that carry each trial's metadata (``# key: value`` lines).
@@ -27,7 +27,7 @@ def summary_row(outcome: TrialOutcome) -> dict:
     s = outcome.row
     stiff = s.get("stiffness") or {}
     return {
-        "trial": outcome.trial, "status": outcome.status, "error": outcome.error,
+        "trial": outcome.trial, "status": outcome.status, "verdict": s.get("verdict") or "", "error": outcome.error,
         "source": outcome.source, "variant": s.get("variant", ""),
         "stiffness_median": stiff.get("median", ""), "stiffness_lo": stiff.get("lo", ""),
         "stiffness_hi": stiff.get("hi", ""),

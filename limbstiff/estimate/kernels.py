@@ -65,9 +65,12 @@ def kalman_loglik(d, z, r, qs, qk, s, k, p11, p12, p22):
     return loglik
 
 
-def kalman_filter(d, z, r, qs, qk, s, k, p11, p12, p22, with_loglik):
+def kalman_filter(d, z, observed, r, qs, qk, s, k, p11, p12, p22, with_loglik):
     """Filter pass keeping the filtered moments (the predicted ones are recomputed by
     :func:`rts_smoother`, which halves the memory written per step).
+
+    Where ``observed[i]`` is False the measurement is treated as missing: the state is only
+    predicted there (held-out prediction).
 
     Returns
     -------
@@ -76,7 +79,8 @@ def kalman_filter(d, z, r, qs, qk, s, k, p11, p12, p22, with_loglik):
     cov : ndarray, shape (n, 3)
         Filtered [p11, p12, p22].
     loglik : float
-        Log-likelihood (0 unless ``with_loglik``: the logarithm is most of a step's cost).
+        Log-likelihood of the observed steps (0 unless ``with_loglik``: the logarithm is most
+        of a step's cost).
     """
     n = z.shape[0]
     mean = np.empty((n, 2))
@@ -87,18 +91,38 @@ def kalman_filter(d, z, r, qs, qk, s, k, p11, p12, p22, with_loglik):
         if i > 0:
             s = s + k * d[i]
             p11, p12, p22 = _predict(p11, p12, p22, d[i], qs, qk)
-        sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, r)
-        e = z[i] - s
-        s = s + g1 * e
-        k = k + g2 * e
-        if with_loglik:
-            loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
+        if observed[i]:
+            sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, r)
+            e = z[i] - s
+            s = s + g1 * e
+            k = k + g2 * e
+            if with_loglik:
+                loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
         mean[i, 0] = s
         mean[i, 1] = k
         cov[i, 0] = p11
         cov[i, 1] = p12
         cov[i, 2] = p22
     return mean, cov, loglik
+
+
+def kalman_innovations(d, z, r, qs, qk, s, k, p11, p12, p22):
+    """Filter pass returning the one-step prediction errors e = z − ŝ⁻ and their variances S
+    (each shape (n,)): white, of variance S, when the model is right."""
+    n = z.shape[0]
+    innovation = np.empty(n)
+    variance = np.empty(n)
+    for i in range(n):
+        if i > 0:
+            s = s + k * d[i]
+            p11, p12, p22 = _predict(p11, p12, p22, d[i], qs, qk)
+        sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, r)
+        e = z[i] - s
+        s = s + g1 * e
+        k = k + g2 * e
+        innovation[i] = e
+        variance[i] = sv
+    return innovation, variance
 
 
 def rts_smoother(d, mean, cov, qs, qk):
@@ -248,7 +272,7 @@ def _compile():
         return False
     g = globals()
     # callees first, so that the compiled callers call compiled code
-    for name in ("_predict", "_update", "linear_recursion", "kalman_filter", "kalman_loglik",
+    for name in ("_predict", "_update", "linear_recursion", "kalman_filter", "kalman_innovations", "kalman_loglik",
                  "rts_smoother", "kalman_quadratic", "marginal_loglik"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True

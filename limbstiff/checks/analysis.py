@@ -1,0 +1,197 @@
+"""Every model check of one analysis: :func:`check_analysis`. Pure numpy: no I/O."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..filtered import Filtered
+from ..mechanics.identification import Identification
+from . import model
+from .verdict import (AGREEMENT_MAX, BAND_WIDTH_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
+                      NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, UNRELIABLE, VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks,
+                      check_at_least, check_at_most, finite_or_none)
+from ..estimate.kalman import NoiseLevels
+
+#: Windows of the sign test, in periods of the typical motion (as the identification's).
+SIGN_WINDOW_PERIODS = 4.0
+#: Share of the torque the opposite sign's elastic line must explain beyond the recorded sign's.
+SIGN_MARGIN = 0.1
+SIGN_ADVICE = ("the torque looks recorded with the opposite sign (a reaction torque?): set scale = -1 for it "
+               "in the protocol's [columns.torque] and analyse again")
+
+
+def torque_sign(filtered: Filtered, *, inertia: float, damping: float) -> Check:
+    """Whether the torque looks recorded with the opposite sign.
+
+    Window by window (:data:`SIGN_WINDOW_PERIODS` motion periods), the torque left to the
+    elastic element is fitted by a line in the angle. With the right sign that line explains
+    most of it; with the wrong one −f − m·ÿ − b·ẏ is the elastic torque, and its line explains
+    clearly more (by :data:`SIGN_MARGIN`) and rises with the angle, or as much while the recorded
+    one falls (the direct variant, where flipping only negates). Measured: right sign
+    0.54–1.00 of the torque explained (simulated elbow, wrist, ankle; real z_df, z_pf, z_pf2),
+    the opposite sign 0.15–0.50; the slope alone misleads where m·ÿ outweighs the stiffness.
+    """
+    window = max(8, int(round(SIGN_WINDOW_PERIODS / filtered.motion_hz / filtered.sample_period)))
+    recorded = model.elastic_slopes(filtered.elastic_torque(inertia, damping), filtered.angle, window=window)
+    flipped = model.elastic_slopes(-filtered.torque - inertia * filtered.acceleration - damping * filtered.velocity,
+                                   filtered.angle, window=window)
+    gain = float(np.median(flipped[1]) - np.median(recorded[1]))
+    rises, rises_flipped = float(np.median(recorded[0])) > 0, float(np.median(flipped[0])) > 0
+    # without m and b (direct variant) flipping only negates: the fit is the same, the slope tells
+    wrong = rises_flipped and (gain > SIGN_MARGIN or (not rises and gain > -SIGN_MARGIN))
+    return Check("torque_sign", gain, SIGN_MARGIN, not wrong,
+                 SIGN_ADVICE if wrong else "the torque rises with the angle as a torque applied to the joint does",
+                 UNRELIABLE)
+
+
+def sign_hint(filtered: Filtered) -> str | None:
+    """:data:`SIGN_ADVICE` when least squares finds a negative inertia and, with it, an elastic
+    torque falling with the angle — what a torque recorded with the opposite sign gives (both
+    change sign with the torque); None otherwise (a negative inertia alone can have other causes,
+    a delay between the channels for one)."""
+    from ..mechanics.least_squares import least_squares
+    window = SIGN_WINDOW_PERIODS / filtered.motion_hz
+    fit = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
+                        sample_period=filtered.sample_period, window=window)
+    if not (fit.inertia < 0 and fit.damping < 0):
+        return None
+    check = torque_sign(filtered, inertia=-fit.inertia, damping=-fit.damping)
+    slopes = model.elastic_slopes(filtered.elastic_torque(fit.inertia, fit.damping), filtered.angle,
+                                  window=max(8, int(round(window / filtered.sample_period))))[0]
+    return SIGN_ADVICE if (not check.passed or np.median(slopes) < 0) else None
+
+
+def _heldout(value: float | None) -> Check:
+    if value is None:
+        return Check("heldout_torque_explained", None, HELDOUT_CAUTION, True,
+                     "too short to leave whole motion periods out (fewer than five blocks of two periods, "
+                     "or too few model steps)")
+    text = f"the model predicts {100 * max(value, 0):.0f} % of the torque on motion periods it was not fitted on"
+    if value < HELDOUT_UNRELIABLE:
+        return Check("heldout_torque_explained", value, HELDOUT_UNRELIABLE, False,
+                     text + ": it does not describe this recording (an unmodelled reflex, movement or coupling?); "
+                           "do not use the stiffness; `limbstiff diagnose` says what is missing", UNRELIABLE)
+    return check_at_least("heldout_torque_explained", value, HELDOUT_CAUTION, severity=CAUTION, good=text,
+                          bad=text + ": a large part of the torque is not described by inertia, damping and "
+                                     "stiffness; `limbstiff diagnose` says what is missing")
+
+
+def _negligible(name: str, value: float | None, threshold: float, share: float) -> Check:
+    return Check(name, value, threshold, True, f"the torque residual is negligible ({100 * share ** 0.5:.2g} % of the "
+                                               "torque's spread): its structure does not matter")
+
+
+def _innovations(stats: model.InnovationStatistics | None, share: float) -> list[Check]:
+    if stats is None:
+        return [Check(name, None, limit, True, "too few model steps to judge the residual")
+                for name, limit in (("residual_whiteness", WHITENESS_MAX),
+                                    ("residual_velocity_correlation", VELOCITY_CORRELATION_MAX))]
+    if share < NEGLIGIBLE_RESIDUAL:
+        return [_negligible("residual_whiteness", stats.autocorrelation, WHITENESS_MAX, share),
+                _negligible("residual_velocity_correlation", stats.velocity_correlation, VELOCITY_CORRELATION_MAX,
+                            share)]
+    return [
+        check_at_most("residual_whiteness", stats.autocorrelation, WHITENESS_MAX, severity=CAUTION,
+                      good="the torque residual has no structure the model should have explained",
+                      bad="the torque residual is strongly correlated in time: the model misses a dynamic of the "
+                          "recording (a resonance of the set-up, a delay between channels?); try a lower "
+                          "bandwidth_hz or `limbstiff diagnose`"),
+        check_at_most("residual_velocity_correlation", stats.velocity_correlation, VELOCITY_CORRELATION_MAX,
+                      severity=CAUTION,
+                      good="the torque residual is not driven by the velocity",
+                      bad="the torque residual follows the velocity (a stretch reflex, friction, a damping the "
+                          "model lacks): the stiffness may carry part of it; `limbstiff diagnose` separates them"),
+    ]
+
+
+def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
+    informed = observable if np.any(observable) else np.ones_like(observable)
+    negative = float(np.mean(stiffness[informed] < 0))
+    median = float(np.median(stiffness[informed]))
+    width = float(np.median((hi - lo)[informed])) / abs(median) if median != 0 else np.inf
+    return [
+        check_at_most("negative_stiffness_share", negative, NEGATIVE_SHARE_MAX, severity=UNRELIABLE,
+                      good="the stiffness is positive where the motion informs it",
+                      bad=f"the stiffness is negative in {100 * negative:.0f} % of the informed samples: the model "
+                          "does not fit (check the torque's sign and units, or run `limbstiff diagnose`)"),
+        check_at_most("band_width_relative", finite_or_none(width), BAND_WIDTH_MAX, severity=CAUTION,
+                      good="the band is narrower than the stiffness itself",
+                      bad="the band is wider than the stiffness itself: the recording does not pin the stiffness "
+                          "down (too little motion, or torque the model takes for stiffness changes)"),
+    ]
+
+
+def _noise_levels(margins: np.ndarray, share: float) -> Check:
+    if share < NEGLIGIBLE_RESIDUAL:
+        return _negligible("noise_levels_at_bounds", float(min(margins[0], margins[2])), BOUND_MARGIN, share)
+    at_bound = [name for name, m in zip(("measurement noise", "torque walk", "stiffness walk"), margins)
+                if m < BOUND_MARGIN]
+    failing = [n for n in at_bound if n != "torque walk"]
+    value = float(min(margins[0], margins[2]))
+    note = (" (the torque walk is at its bound: torque not explained by the angle, such as a reflex, is large)"
+            if "torque walk" in at_bound else "")
+    if failing:
+        return Check("noise_levels_at_bounds", value, BOUND_MARGIN, False,
+                     f"the {' and '.join(failing)} reached the largest value the model allows: the model takes up "
+                     "torque it does not explain as " + ("stiffness changes" if "stiffness walk" in failing else
+                                                         "noise") + note, CAUTION)
+    return Check("noise_levels_at_bounds", value, BOUND_MARGIN, True,
+                 "the noise levels were fitted inside their bounds" + note)
+
+
+def _agreement(ident: Identification) -> Check | None:
+    if ident is None or ident.given:
+        return None
+    ls, ml = ident.least_squares, ident.maximum_likelihood
+    worst = 0.0
+    for name in ("inertia", "damping"):
+        values = [getattr(ls, name), getattr(ml, name), getattr(ident, name).median]
+        ref = abs(values[2]) or 1e-300
+        worst = max(worst, (max(values) - min(values)) / ref)
+    return check_at_most("mechanics_agreement", worst, AGREEMENT_MAX, severity=CAUTION,
+                         good="least squares, maximum likelihood and the posterior agree on inertia and damping",
+                         bad=f"least squares, maximum likelihood and the posterior disagree on inertia or damping by "
+                             f"{100 * worst:.0f} %: they rest on the model, not the data; give m and b if they are "
+                             "known, or treat the stiffness with caution")
+
+
+def _inertia_range(ident: Identification) -> Check | None:
+    if ident is None or ident.expected_inertia is None:
+        return None
+    lo, hi = ident.expected_inertia
+    inside = ident.inertia_in_expected_range
+    return Check("inertia_in_expected_range", ident.inertia.median, None, bool(inside),
+                 f"the inertia is {'within' if inside else 'OUTSIDE'} the range expected for this set-up "
+                 f"({lo:g}–{hi:g})" + ("" if inside else ": check the protocol's expected_inertia, the units, "
+                                                         "and the torque's sign"), CAUTION)
+
+
+def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                   observable: np.ndarray, ident: Identification | None, noise: NoiseLevels) -> ModelChecks:
+    """Every check of one analysis.
+
+    Parameters
+    ----------
+    filtered : Filtered
+    stiffness, lo, hi : ndarray, shape (n,), N·m/rad
+        The stiffness and its band.
+    observable : ndarray of bool, shape (n,)
+    ident : Identification or None
+        None for the direct variant.
+    noise : NoiseLevels
+        The Kalman model's noise levels.
+
+    Returns
+    -------
+    ModelChecks
+    """
+    m = 0.0 if ident is None else ident.inertia.median
+    b = 0.0 if ident is None else ident.damping.median
+    kw = dict(inertia=m, damping=b, noise=noise)
+    share = float(noise.measurement) / max(float(np.var(filtered.torque)), 1e-300)
+    checks = [_heldout(model.heldout_explained(filtered, **kw)),
+              *_innovations(model.innovation_statistics(filtered, **kw), share),
+              *_stiffness_course(stiffness, lo, hi, observable),
+              _noise_levels(model.bound_margins(filtered, **kw), share), _agreement(ident), _inertia_range(ident),
+              torque_sign(filtered, inertia=m, damping=b)]
+    return ModelChecks(tuple(c for c in checks if c is not None))

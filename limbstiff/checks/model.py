@@ -1,0 +1,182 @@
+"""What the model checks measure, on the analysis's own Kalman model and filtered signals.
+
+* :func:`heldout_explained`: the share of the recorded torque the model predicts on whole motion
+  periods it was not given (their measurements left out of the filter and smoother, so the
+  elastic torque there is carried across by ds = σ·dy from both sides);
+* :func:`innovation_statistics`: the one-step prediction errors, which are white and
+  unrelated to the motion when the model is right;
+* :func:`elastic_slopes`: the local slope of a torque on the angle, window by window, for the
+  sign of the recorded torque.
+
+Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..estimate import kernels
+from ..estimate.estimators import kalman_decimation
+from ..estimate.kalman import ModelSteps, NoiseLevels, kalman_smoother, model_steps, noise_bounds
+from ..filtered import Filtered
+
+#: Held-out blocks are this many periods of the typical motion long: whole periods, so that a
+#: block holds the excursions that reveal the stiffness, not a fragment the neighbours explain.
+HELDOUT_PERIODS = 2.0
+#: Blocks are dealt to this many folds in turn; each fold is left out once.
+HELDOUT_FOLDS = 5
+#: Innovation lags (filter steps) of the whiteness statistic.
+WHITENESS_LAGS = 10
+#: Longest lag of the innovations behind the velocity, s: a stretch reflex answers in 20–80 ms.
+VELOCITY_LAG_S = 0.1
+#: Fewest model steps a statistic is computed on (below it: not computed, the check passes).
+MIN_STEPS = 100
+
+
+@dataclass(frozen=True)
+class InnovationStatistics:
+    """How far the one-step prediction errors are from white noise unrelated to the motion.
+
+    Parameters
+    ----------
+    autocorrelation : float
+        Largest |autocorrelation| of the standardised innovations over lags 1–:data:`WHITENESS_LAGS`.
+    velocity_correlation : float
+        Largest |correlation| of the innovations with the velocity they follow by 0–:data:`VELOCITY_LAG_S`.
+    """
+
+    autocorrelation: float
+    velocity_correlation: float
+
+
+def _steps(filtered: Filtered, inertia: float, damping: float) -> ModelSteps:
+    return model_steps(filtered.angle, filtered.elastic_torque(inertia, damping), sample_period=filtered.sample_period,
+                       decimation=kalman_decimation(filtered.sample_period, filtered.cutoff_hz), edge=filtered.edge,
+                       scale_from=filtered.torque)
+
+
+def heldout_explained(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> float | None:
+    """Share of the torque's variance predicted on held-out whole motion periods.
+
+    Blocks of :data:`HELDOUT_PERIODS` motion periods are dealt to :data:`HELDOUT_FOLDS` folds.
+    For each fold the filter and smoother run with that fold's measurements left out; across
+    each left-out gap the elastic torque is then carried from the gap's two edges by ds = σ·dy,
+    with σ a function of the angle fitted to the training steps beside the gap
+    (:func:`_across_gap`). Plus m·ÿ + b·ẏ that is the prediction of the recorded torque.
+
+    Returns
+    -------
+    float or None
+        1 − mean((f − f̂)²)/var(f) over the held-out steps (1: perfect, ≤ 0: no better than the
+        mean); None when the trial has fewer blocks than folds.
+    """
+    st = _steps(filtered, inertia, damping)
+    if len(st.index) < MIN_STEPS:
+        return None
+    block = np.floor(np.arange(len(st.index)) * st.step * filtered.motion_hz / HELDOUT_PERIODS).astype(int)
+    if block[-1] + 1 < HELDOUT_FOLDS:
+        return None
+    fold = block % HELDOUT_FOLDS
+    predicted = np.empty(len(st.index))
+    for j in range(HELDOUT_FOLDS):
+        left_out = fold == j
+        smoothed = kalman_smoother(st.increments, st.measured, noise, step=st.step, initial_mean=st.initial_mean,
+                                   initial_cov=st.initial_cov, loglik=False, observed=~left_out)
+        for a, b in _runs(left_out):
+            predicted[a:b] = _across_gap(st.angle, smoothed.mean, a, b)
+    torque = filtered.torque[st.index]
+    return float(1.0 - np.mean((st.measured - predicted) ** 2) / max(float(np.var(torque)), 1e-300))
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) of each run of True in ``mask``."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.ndarray:
+    """Elastic torque over the left-out steps a…b−1 from the training data on either side.
+
+    σ(y) is a quadratic fitted to the smoothed stiffness of the training steps within one gap
+    length before and after (a stiffness that depends on the angle, as a nonlinear spring's
+    does, is followed through the motion; one that drifts in time is averaged). The torque is
+    integrated, ∫σ(y)dy, forwards from the last step before the gap and backwards from the first
+    after it, and the two are blended linearly in time (one side only at the trial's ends).
+    """
+    n, length = len(angle), b - a
+    near = np.r_[max(0, a - length):a, b:min(n, b + length)]
+    y, sigma = angle[near], smoothed[near, 1]
+    degree = min(2, len(near) - 1)
+    if degree < 0 or np.ptp(y) == 0:
+        coef = np.array([float(np.mean(sigma)) if len(near) else 0.0])
+    else:
+        coef = np.polyfit(y, sigma, degree)
+    integral = np.polyint(coef)
+    gap = angle[a:b]
+    forward = smoothed[a - 1, 0] + np.polyval(integral, gap) - np.polyval(integral, angle[a - 1]) if a > 0 else None
+    backward = smoothed[b, 0] - (np.polyval(integral, angle[b]) - np.polyval(integral, gap)) if b < n else None
+    if forward is None or backward is None:
+        return forward if backward is None else backward
+    w = (np.arange(length) + 1.0) / (length + 1.0)
+    return (1.0 - w) * forward + w * backward
+
+
+def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
+                          noise: NoiseLevels) -> InnovationStatistics | None:
+    """Whiteness of the innovations and their correlation with the velocity (None on fewer
+    than :data:`MIN_STEPS` steps)."""
+    st = _steps(filtered, inertia, damping)
+    if len(st.index) < MIN_STEPS:
+        return None
+    e, s = kernels.kalman_innovations(st.increments, np.ascontiguousarray(st.measured), float(noise.measurement),
+                                      float(noise.torque_walk * st.step), float(noise.stiffness_walk * st.step),
+                                      float(st.initial_mean[0]), float(st.initial_mean[1]), *map(float, st.initial_cov))
+    skip = max(WHITENESS_LAGS, len(e) // 50)          # the diffuse start
+    u = e[skip:] / np.sqrt(s[skip:])
+    u = (u - u.mean()) / max(float(u.std()), 1e-300)
+    v = filtered.velocity[st.index][skip:]
+    v = (v - v.mean()) / max(float(v.std()), 1e-300)
+    n = len(u)
+    acf = [float(np.dot(u[:-k], u[k:]) / n) for k in range(1, min(WHITENESS_LAGS, n - 1) + 1)]
+    lags = range(0, min(int(VELOCITY_LAG_S / st.step), n - 1) + 1)
+    xcorr = [float(np.dot(u[k:], v[:n - k]) / n) for k in lags]
+    return InnovationStatistics(autocorrelation=max(map(abs, acf), default=0.0),
+                                velocity_correlation=max(map(abs, xcorr), default=0.0))
+
+
+def bound_margins(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> np.ndarray:
+    """How far each noise level lies below its upper bound, in natural-log units, shape (3,):
+    measurement R, torque walk Q_s, stiffness walk Q_σ (:func:`~limbstiff.estimate.kalman.noise_bounds`)."""
+    st = _steps(filtered, inertia, damping)
+    bounds = np.array(noise_bounds(float(np.var(st.measured)), float(np.sqrt(st.initial_cov[2])), filtered.motion_hz))
+    logs = np.log([noise.measurement, noise.torque_walk, noise.stiffness_walk])
+    return bounds[:, 1] - logs
+
+
+def elastic_slopes(torque: np.ndarray, angle: np.ndarray, *, window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares slope of ``torque`` on ``angle`` in consecutive windows, and the share of the
+    torque's variance each line explains.
+
+    Parameters
+    ----------
+    torque, angle : ndarray, shape (n,)
+    window : int
+        Samples per window.
+
+    Returns
+    -------
+    slope : ndarray, shape (w,), N·m/rad
+    explained : ndarray, shape (w,)
+    """
+    window = max(2, min(int(window), len(angle)))
+    w = len(angle) // window
+    y = angle[:w * window].reshape(w, window)
+    f = torque[:w * window].reshape(w, window)
+    yc = y - y.mean(axis=1, keepdims=True)
+    fc = f - f.mean(axis=1, keepdims=True)
+    yy = np.maximum(np.sum(yc * yc, axis=1), 1e-300)
+    slope = np.sum(yc * fc, axis=1) / yy
+    explained = slope * np.sum(yc * fc, axis=1) / np.maximum(np.sum(fc * fc, axis=1), 1e-300)
+    return slope, explained
