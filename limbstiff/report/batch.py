@@ -196,7 +196,7 @@ def _table_blocks(rows, keys):
     for i, row in enumerate(rows, start=1):
         ok = _ok(row)
         cells = {"#": str(i), "trial": str(row.get("trial", "?")),
-                 "status": "ok" if ok else str(row.get("status", "failed")),
+                 "status": str(row.get("verdict") or "done") if ok else str(row.get("status", "failed")),
                  "group": " · ".join(str(group_value(row, k) or "—") for k in keys)}
         if ok:
             m, a, b = _value(row, "stiffness")
@@ -214,8 +214,8 @@ def _table_blocks(rows, keys):
 
 
 #: Table columns: name, x (figure fraction), alignment, most characters.
-_COLUMNS = (("#", 0.06, "right", 4), ("trial", 0.07, "left", LABEL_CHARS), ("status", 0.30, "left", 7),
-            ("group", 0.36, "left", 22), ("stiffness", 0.53, "left", 24), ("inertia", 0.70, "left", 11),
+_COLUMNS = (("#", 0.06, "right", 4), ("trial", 0.07, "left", LABEL_CHARS), ("status", 0.285, "left", 10),
+            ("group", 0.365, "left", 21), ("stiffness", 0.53, "left", 24), ("inertia", 0.70, "left", 11),
             ("damping", 0.80, "left", 11), ("informed", 0.965, "right", 8))
 #: Characters of a failed trial's error per line (from the stiffness column to the margin).
 _ERROR_CHARS = 56
@@ -230,7 +230,7 @@ def _table_pages(rows, keys, units):
             page = []
         page += block
     chunks.append(page)
-    header = [({"#": "#", "trial": "trial", "status": "status", "group": " · ".join(keys),
+    header = [({"#": "#", "trial": "trial", "status": "verdict", "group": " · ".join(keys),
                 "stiffness": "stiffness", "inertia": "inertia", "damping": "damping", "informed": "informed"}, None),
               ({"stiffness": f"median [lo, hi], {units['stiffness']}", "inertia": units["inertia"],
                 "damping": units["damping"], "informed": "%"}, None)]

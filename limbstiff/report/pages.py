@@ -42,10 +42,35 @@ def summary_page(result):
     fig = new_page(constrained=False)
     fig.text(0.06, 0.955, "Stiffness report", fontsize=FONT["title"], weight="bold")
     fig.text(0.06, 0.93, result.trial.name, fontsize=FONT["heading"], color="0.3")
-    y = _key_values(fig, _summary_rows(result), 0.89)
+    y = _verdict_box(fig, result, 0.905)
+    y = _key_values(fig, _summary_rows(result), y - 0.012)
     y = _warning_list(fig, result.warnings, y - 0.015)
     _metadata_list(fig, list(result.trial.metadata.items()), y)
     return fig
+
+
+#: How each verdict reads on page 1, and its colour.
+VERDICT_TEXT = {
+    "ok": ("OK", "the model fits this recording: the stiffness can be used", "#1a7f37"),
+    "caution": ("CAUTION", "the model misses part of this recording: the stiffness may be biased", "#b35c00"),
+    "unreliable": ("UNRELIABLE", "the model does not fit this recording: do not use the stiffness", "#c62828"),
+}
+
+
+def _verdict_box(fig, result, y: float) -> float:
+    """The verdict in plain words, coloured, with the reasons below it, from height ``y`` (page
+    fraction) down; the height reached."""
+    if result.checks is None:
+        return y
+    word, meaning, colour = VERDICT_TEXT[result.checks.verdict]
+    fig.text(0.06, y, f"Verdict: {word}", fontsize=FONT["heading"] + 1, weight="bold", color=colour, va="top")
+    fig.text(0.33, y - 0.002, meaning, fontsize=10, color=colour, va="top")
+    y -= 0.03
+    for reason in result.checks.reasons:
+        wrapped = textwrap.wrap(reason, 95)
+        fig.text(0.08, y, "• " + "\n  ".join(wrapped), fontsize=FONT["body"], va="top", linespacing=1.3)
+        y -= 0.0175 * len(wrapped) + 0.006
+    return y
 
 
 def _summary_rows(result) -> list[tuple[str, str]]:
