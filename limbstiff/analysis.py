@@ -14,6 +14,7 @@ import dataclasses
 import numpy as np
 from scipy import stats
 
+from . import bandwidth
 from .checks import ModelChecks, check_analysis
 from .checks.analysis import sign_hint
 from .errors import TrialError
@@ -44,8 +45,22 @@ def default_gain(angle: np.ndarray) -> float:
     return 1.0 / (MEMORY_FRACTION_OF_RANGE * range_of_motion(angle))
 
 
+#: A lower corner that predicts this much more of the torque (share of its variance) than the
+#: spectral one is said in the warnings: the torque above it holds what the model cannot explain.
+CORNER_GAIN_WARNING = 0.05
+
+
 def _where(trial: Trial) -> str:
     return trial.source or trial.name
+
+
+def filter_for_model(trial: Trial, protocol: Protocol) -> tuple[Filtered, bandwidth.CornerScan | None]:
+    """The trial filtered at the corner where the model predicts the torque best
+    (:func:`bandwidth.scan_corners`), or at the protocol's corner when it gives one."""
+    if not bandwidth.scans(protocol):
+        return filter_trial(trial, protocol), None
+    scan = bandwidth.scan_corners(trial, protocol)
+    return filter_trial(trial, protocol, corner_hz=scan.chosen_hz), scan
 
 
 def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int = 0) -> Identification:
@@ -62,7 +77,7 @@ def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int 
         For a direct-variant trial (no external torque), or when m or b is not identifiable.
     """
     protocol = protocol or Protocol()
-    filtered = filter_trial(trial, protocol)
+    filtered, _ = filter_for_model(trial, protocol)
     if filtered.variant != "external":
         raise TrialError(_where(trial), "inertia and damping are identified from the external "
                                         "torque; this trial has only the elastic torque (direct variant)")
@@ -134,8 +149,13 @@ def _observable(filtered: Filtered, derived: DerivedSettings) -> np.ndarray:
     return observable
 
 
-def _warnings(trial: Trial, ident: Identification | None, observable: np.ndarray) -> tuple[str, ...]:
+def _warnings(trial: Trial, ident: Identification | None, observable: np.ndarray,
+              scan: bandwidth.CornerScan | None) -> tuple[str, ...]:
     warnings = list(trial.warnings)
+    if scan is not None and scan.gain > CORNER_GAIN_WARNING:
+        warnings.append(f"above {scan.chosen_hz:.3g} Hz the torque holds what the model cannot explain (a resonance "
+                        f"or coupling of the set-up?): filtered at {scan.chosen_hz:.3g} Hz instead of "
+                        f"{scan.spectral_hz:.3g} Hz, the model predicts {100 * scan.gain:.0f} % more of the torque")
     if ident is not None:
         warnings += list(ident.warnings)
         if ident.inertia_in_expected_range is False:
@@ -184,7 +204,7 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping,
                                                  observer_gain=observer_gain, estimator=estimator)
     where = _where(trial)
-    filtered = filter_trial(trial, protocol)
+    filtered, scan = filter_for_model(trial, protocol)
     derived = derive_settings(filtered, protocol, where=where)
     ident = _mechanics(filtered, protocol, seed=seed, where=where)
     estimate = _estimate(filtered, protocol, derived, ident)
@@ -202,5 +222,6 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
         stiffness_lo=estimate.stiffness - half, stiffness_hi=estimate.stiffness + half, observable=observable,
         inertia=None if ident is None else ident.inertia, damping=None if ident is None else ident.damping,
         ci_level=protocol.ci_level, seed=seed, settings=protocol.to_dict(), filtered=filtered, derived=derived,
-        fit=estimate.fit, identification=ident, checks=checks, warnings=_warnings(trial, ident, observable),
+        fit=estimate.fit, identification=ident, checks=checks, warnings=_warnings(trial, ident, observable, scan),
+        corner_scan=scan,
         reference=trial.stiffness_true if reference is None else reference)

@@ -153,11 +153,16 @@ def variant_of(trial: Trial, protocol: Protocol) -> str:
     return variant
 
 
-def filter_trial(trial: Trial, protocol: Protocol) -> Filtered:
+#: ``corner_hz`` of :func:`filter_trial` when the corner is the protocol's or the spectra's.
+FROM_PROTOCOL = "protocol"
+
+
+def filter_trial(trial: Trial, protocol: Protocol, *, corner_hz: float | None | str = FROM_PROTOCOL) -> Filtered:
     """Filter and differentiate a trial's angle and torque, the same chain for both.
 
-    The corner comes from the protocol (``bandwidth_hz``) or from the spectra of the recorded
-    angle and torque (:func:`signals.choose_bandwidth`); a corner at or above
+    The corner comes from ``corner_hz`` when given (None: no filter), else from the protocol
+    (``bandwidth_hz``) or from the spectra of the recorded angle and torque
+    (:func:`signals.choose_bandwidth`); a corner at or above
     :data:`signals.MAX_BANDWIDTH_FRACTION` of the rate is not applied.
 
     Raises
@@ -172,6 +177,8 @@ def filter_trial(trial: Trial, protocol: Protocol) -> Filtered:
     chosen = signals.choose_bandwidth(trial.angle, fs, torque=recorded)
     if protocol.derivatives == "paper":
         cutoff = None
+    elif corner_hz != FROM_PROTOCOL:
+        cutoff = corner_hz
     else:
         cutoff = protocol.bandwidth_hz if protocol.bandwidth_hz is not None else chosen.cutoff_hz
         if cutoff is not None and cutoff >= signals.MAX_BANDWIDTH_FRACTION * fs:

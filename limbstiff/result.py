@@ -14,6 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import __version__
+from .bandwidth import CornerScan
 from .checks import ModelChecks
 from .estimate.estimators import EstimatorFit
 from .filtered import Filtered
@@ -86,6 +87,9 @@ class StiffnessResult:
         How m and b were obtained (None for the direct variant).
     checks : ModelChecks or None
         Whether the model fits the recording, and the verdict.
+    corner_scan : CornerScan or None
+        The model's held-out torque prediction at each low-pass corner tried (None when the
+        protocol sets the corner or the chain is the paper's).
     warnings : tuple of str
     reference : ndarray, shape (n,), or None
         Reference stiffness (``stiffness_true`` or a calibration), for validation.
@@ -108,6 +112,7 @@ class StiffnessResult:
     fit: EstimatorFit
     identification: Identification | None = None
     checks: ModelChecks | None = None
+    corner_scan: CornerScan | None = None
     warnings: tuple[str, ...] = ()
     reference: np.ndarray | None = None
 
@@ -166,7 +171,8 @@ class StiffnessResult:
             "observer_memory": d.observer_memory,
             "discretisation": d.discretisation,
             "derivatives": f.chain.kind,
-            "bandwidth": f.bandwidth.to_dict(),
+            "bandwidth": dict(f.bandwidth.to_dict(), scan=None if self.corner_scan is None
+                              else self.corner_scan.to_dict()),
             "torque_quantisation_step": f.torque_quantisation_step,
             "motion_frequency_hz": f.motion_hz,
             "range_of_motion": d.range_of_motion,

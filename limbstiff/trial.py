@@ -8,7 +8,7 @@ time; finite samples; SI units; at least one of ``torque`` and ``elastic_torque`
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Literal, Mapping
 
@@ -135,6 +135,13 @@ class Trial:
     def variant(self) -> Literal["direct", "external"]:
         """Observer variant the data allow: ``direct`` when the elastic torque is measured."""
         return "direct" if self.elastic_torque is not None else "external"
+
+    def segment(self, start: int, stop: int) -> "Trial":
+        """Samples ``start`` … ``stop`` − 1 as a trial of their own (same name, source and metadata)."""
+        part = slice(start, stop)
+        return replace(self, time=self.time[part], angle=self.angle[part],
+                       **{k: None if getattr(self, k) is None else getattr(self, k)[part]
+                          for k in ("torque", "elastic_torque", "stiffness_true")})
 
     @property
     def units(self) -> Mapping[str, str]:

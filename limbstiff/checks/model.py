@@ -57,8 +57,9 @@ def _steps(filtered: Filtered, inertia: float, damping: float) -> ModelSteps:
                        scale_from=filtered.torque)
 
 
-def heldout_explained(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> float | None:
-    """Share of the torque's variance predicted on held-out whole motion periods.
+def heldout_prediction(filtered: Filtered, *, inertia: float, damping: float,
+                       noise: NoiseLevels) -> tuple[np.ndarray, np.ndarray] | None:
+    """The model's prediction of the torque on held-out whole motion periods.
 
     Blocks of :data:`HELDOUT_PERIODS` motion periods are dealt to :data:`HELDOUT_FOLDS` folds.
     For each fold the filter and smoother run with that fold's measurements left out; across
@@ -68,9 +69,11 @@ def heldout_explained(filtered: Filtered, *, inertia: float, damping: float, noi
 
     Returns
     -------
-    float or None
-        1 − mean((f − f̂)²)/var(f) over the held-out steps (1: perfect, ≤ 0: no better than the
-        mean); None when the trial has fewer blocks than folds.
+    index : ndarray of int, shape (k,)
+        The samples of the model's steps.
+    torque : ndarray, shape (k,), N·m
+        The torque predicted there, every step held out once.
+    None when the trial has fewer blocks than folds or fewer than :data:`MIN_STEPS` steps.
     """
     st = _steps(filtered, inertia, damping)
     if len(st.index) < MIN_STEPS:
@@ -79,15 +82,40 @@ def heldout_explained(filtered: Filtered, *, inertia: float, damping: float, noi
     if block[-1] + 1 < HELDOUT_FOLDS:
         return None
     fold = block % HELDOUT_FOLDS
-    predicted = np.empty(len(st.index))
+    elastic = np.empty(len(st.index))
     for j in range(HELDOUT_FOLDS):
         left_out = fold == j
         smoothed = kalman_smoother(st.increments, st.measured, noise, step=st.step, initial_mean=st.initial_mean,
                                    initial_cov=st.initial_cov, loglik=False, observed=~left_out)
         for a, b in _runs(left_out):
-            predicted[a:b] = _across_gap(st.angle, smoothed.mean, a, b)
-    torque = filtered.torque[st.index]
-    return float(1.0 - np.mean((st.measured - predicted) ** 2) / max(float(np.var(torque)), 1e-300))
+            elastic[a:b] = _across_gap(st.angle, smoothed.mean, a, b)
+    i = st.index
+    return i, elastic + inertia * filtered.acceleration[i] + damping * filtered.velocity[i]
+
+
+def heldout_explained(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels,
+                      reference: np.ndarray | None = None) -> float | None:
+    """Share of the torque's variance predicted on held-out whole motion periods
+    (:func:`heldout_prediction`).
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n,), optional
+        The torque to predict (default the filtered one); scans over corners give one torque
+        for all, so that a lower corner does not win by removing noise from its own target.
+
+    Returns
+    -------
+    float or None
+        1 − mean((f − f̂)²)/var(f) over the held-out steps (1: perfect, ≤ 0: no better than the
+        mean); None when :func:`heldout_prediction` is None.
+    """
+    out = heldout_prediction(filtered, inertia=inertia, damping=damping, noise=noise)
+    if out is None:
+        return None
+    index, predicted = out
+    torque = (filtered.torque if reference is None else reference)[index]
+    return float(1.0 - np.mean((torque - predicted) ** 2) / max(float(np.var(torque)), 1e-300))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
