@@ -54,6 +54,25 @@ def _spectrum_axes(ax, x, fs, *, label, unit, cutoff, edge, step, floor=None):
     ax.legend(loc="lower left", fontsize=FONT["small"], framealpha=0.85)
 
 
+def _scan_axes(ax, scan, fs) -> None:
+    """The model's held-out torque prediction at each corner tried, on a second y axis of the
+    torque spectrum's panel (same frequency axis)."""
+    if scan is None:
+        return
+    pairs = [(fs / 2 * 0.95 if c is None else c, v) for c, v in zip(scan.corners_hz, scan.scores) if v is not None]
+    if not pairs:
+        return
+    twin = ax.twinx()
+    corners, scores = map(np.asarray, zip(*pairs))
+    twin.plot(corners, 100 * np.clip(scores, -1, 1), "o-", color="C4", ms=3.5, lw=1,
+              label="torque predicted out of sample, per corner tried")
+    chosen = fs / 2 * 0.95 if scan.chosen_hz is None else scan.chosen_hz
+    twin.plot([chosen], [100 * dict(pairs).get(chosen, np.nan)], "*", color="C3", ms=11, label="corner kept")
+    twin.set_ylim(min(0.0, 100 * float(scores.min()) - 5), 100)
+    twin.set_ylabel("held-out torque predicted [%]", color="C4")
+    twin.legend(loc="lower right", fontsize=FONT["small"], framealpha=0.85)
+
+
 def _rms(x) -> float:
     """RMS about the mean (0 for a constant signal, whatever its round-off)."""
     return 0.0 if is_constant(x) else float(np.std(np.asarray(x, float)))
@@ -119,8 +138,10 @@ def quality_page(result):
     edge = bw.signal_edge_hz
     _spectrum_axes(fig.add_subplot(gs[1, :]), trial.angle, trial.fs, label=word["angle"], unit=u["angle"],
                    cutoff=cutoff, edge=edge, step=bw.quantisation_step, floor=bw.noise_floor)
-    _spectrum_axes(fig.add_subplot(gs[2, :]), torque, trial.fs, label=word[key], unit=u[key],
+    torque_axes = fig.add_subplot(gs[2, :])
+    _spectrum_axes(torque_axes, torque, trial.fs, label=word[key], unit=u[key],
                    cutoff=cutoff, edge=edge, step=f.torque_quantisation_step)
+    _scan_axes(torque_axes, result.corner_scan, trial.fs)
     quant = (_quantisation_rows(word["angle"], u["angle"], bw.quantisation_step, trial.angle)
              + _quantisation_rows(word[key], u[key], f.torque_quantisation_step, torque))
     text_panel(fig.add_subplot(gs[3, 0]), quant, title="Quantisation", key_width=0.36, wrap=36,
