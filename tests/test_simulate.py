@@ -11,8 +11,8 @@ from limbstiff.simulate import (EFFECTS, SCENARIOS, describe_scenarios, effect_d
                                 simulate, simulate_with_truth, trial_scales)
 from limbstiff.effects import dahl, dahl_along, delay_signal, play
 from limbstiff.simulate.effects import REFERENCE_SCALES
-from limbstiff.simulate.excitation import (chirp, draw_random_steps, gate, multisine,
-                                           smoothed_steps)
+from limbstiff.simulate.excitation import (chirp, draw_binary_steps, draw_random_steps, gate,
+                                           multisine, smoothed_steps)
 from limbstiff.simulate.paper import EXP_SPRINGS
 from limbstiff.simulate.plants import internal_step
 from limbstiff.trial import Trial
@@ -20,7 +20,7 @@ from limbstiff.trial import Trial
 #: Short trials for the fast tests.
 SHORT = {name: {"duration": 3.0} for name in SCENARIOS}
 TORQUE_DRIVEN = ["paper-vsa-hogan", "paper-vsa-feldman", "paper-vsa-exp", "elbow", "wrist"]
-RANDOM = ["elbow", "ankle", "wrist"]
+RANDOM = ["elbow", "ankle", "wrist", "ankle-coupled", "ankle-platform"]
 
 
 def derivative(x, ts):
@@ -146,7 +146,7 @@ def test_ode_solution_satisfies_equation_of_motion(name, short_runs):
     np.testing.assert_allclose(jerk[inner], truth["jerk"][inner], atol=1e-3 * np.max(np.abs(jerk)))
 
 
-@pytest.mark.parametrize("name", ["paper-exp-spring", "ankle"])
+@pytest.mark.parametrize("name", ["paper-exp-spring", "ankle", "ankle-platform"])
 def test_position_drive_derivatives_are_exact(name, short_runs):
     trial, truth = short_runs[name]
     ts = trial.sample_period
@@ -507,3 +507,16 @@ def test_delay_signal():
     np.testing.assert_allclose(delay_signal(t, x, 0.2)[2:], x[:-2], atol=1e-15)
     assert delay_signal(t, x, 0.2)[0] == x[0] and delay_signal(t, x, 0.2, before=-1.0)[0] == -1.0
     np.testing.assert_allclose(delay_signal(t, x, -0.2)[:-2], x[2:], atol=1e-15)
+
+
+def test_binary_steps_alternate_with_uniform_holds():
+    rng = np.random.default_rng(0)
+    times, levels = draw_binary_steps(rng, 30.0, 0.06, 0.05, 0.2)
+    assert times[-1] > 30.0 and levels.size == times.size + 1
+    np.testing.assert_array_equal(np.abs(levels), 0.06)
+    np.testing.assert_array_equal(levels[1:], -levels[:-1])
+    holds = np.diff(np.concatenate([[0.0], times]))
+    assert holds.min() >= 0.05 and holds.max() <= 0.2
+    assert np.mean(holds) == pytest.approx(0.125, rel=0.05)
+    with pytest.raises(ValueError, match="hold_min"):
+        draw_binary_steps(rng, 1.0, 0.06, 0.2, 0.1)

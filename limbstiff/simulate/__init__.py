@@ -44,8 +44,8 @@ def trial_scales(truth: Mapping[str, np.ndarray]) -> dict[str, float]:
     dict
         ``torque``: sd of the external torque (N·m or N); ``velocity``: RMS velocity (rad/s
         or m/s); ``quartic_velocity``: (mean ẏ⁴)^(1/4), which sizes a torque ∝ ẏ|ẏ|;
-        ``angle``: sd of the angle (rad or m); ``stiffness``: smallest positive stiffness
-        (N·m/rad or N/m).
+        ``angle``: sd of the recorded angle (rad or m; without the ``unrecorded_angle`` of a
+        moving operating point); ``stiffness``: smallest positive stiffness (N·m/rad or N/m).
     """
     sigma = np.asarray(truth["stiffness"])
     positive = sigma[sigma > 0]
@@ -54,7 +54,7 @@ def trial_scales(truth: Mapping[str, np.ndarray]) -> dict[str, float]:
         "torque": float(np.std(truth["external_torque"])),
         "velocity": float(np.sqrt(np.mean(v**2))),
         "quartic_velocity": float(np.mean(v**4) ** 0.25),
-        "angle": float(np.std(truth["angle"])),
+        "angle": float(np.std(truth["angle"] - truth.get("unrecorded_angle", 0.0))),
         "stiffness": float(positive.min()) if positive.size else 0.0,
     }
     for key, value in scales.items():
@@ -90,10 +90,14 @@ def simulate_with_truth(scenario: str, *, seed: int = 0,
         ``angle`` (rad), ``velocity`` (rad/s), ``acceleration`` (rad/s²), ``jerk`` (rad/s³),
         ``elastic_torque`` (N·m), ``stiffness`` (N·m/rad), ``damping`` (generalized damping
         ∂d/∂ẏ, N·m·s/rad), ``damping_torque`` (N·m), ``effect_torque`` (N·m, zeros without
-        a dynamics effect), ``external_torque`` (N·m, before measurement effects and noise),
-        ``control`` (the stiffness-regulating input u); floats ``inertia`` (true, kg·m²),
-        ``internal_step`` (s, 0 for a position drive) and ``delay`` (s, delay used by a
-        delayed effect). Translational trials use m, N, N/m, N·s/m, kg.
+        a dynamics effect), ``external_torque`` (N·m, applied to the joint, before the
+        sign of a reaction-torque sensor, measurement effects and noise), ``control`` (the
+        stiffness-regulating input u), ``unrecorded_angle`` (rad, the part of ``angle`` the
+        angle channel does not record; zeros but for ``ankle-platform``); floats ``inertia``
+        (true, kg·m²), ``internal_step`` (s, 0 for a position drive) and ``delay`` (s, delay
+        used by a delayed effect). Translational trials use m, N, N/m, N·s/m, kg. The
+        scenarios of :mod:`.devices` add their own entries (``ankle-coupled``: the limb's
+        motion and the coupling torque; ``angle`` is then the device's angle).
     """
     sc = lookup(scenario)
     what = f"scenario '{sc.name}'"
@@ -148,7 +152,8 @@ def _effect_for(setup, p: Mapping[str, float], effect: str | None,
 
 def _recorded(sc: Scenario, p: Mapping[str, float], setup, truth: dict,
               measurement: Measurement | None, rng: np.random.Generator) -> tuple:
-    """What the sensors record of the true signals: measurement effect, torque noise, encoder.
+    """What the sensors record of the true signals: angle reference, torque sign, measurement
+    effect, torque noise, encoder.
 
     Returns
     -------
@@ -158,9 +163,13 @@ def _recorded(sc: Scenario, p: Mapping[str, float], setup, truth: dict,
     """
     t = truth["time"]
     angle = truth["angle"].copy()
+    if setup.unrecorded_angle is not None:
+        angle = angle - truth["unrecorded_angle"]
     channels = {"torque": truth["external_torque"].copy()}
     if setup.record_elastic:
         channels["elastic_torque"] = truth["elastic_torque"].copy()
+    if setup.torque_sign != 1.0:
+        channels = {k: setup.torque_sign * x for k, x in channels.items()}
     if measurement is not None:
         angle, channels = measurement.apply(t, angle, channels, rng)
     noise = p["torque_noise"]

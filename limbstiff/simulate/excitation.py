@@ -1,4 +1,5 @@
-"""Excitation and schedule signals: chirp, multisine, sinusoid, random steps, ramps, gates.
+"""Excitation and schedule signals: chirp, multisine, sinusoid, random and binary steps, ramps,
+gates.
 
 Every signal is a pure function of a time array. Signals that a position drive imposes
 return their analytic time derivatives too, as an array of shape ``(derivatives + 1, n)``
@@ -205,6 +206,31 @@ def draw_random_steps(rng: np.random.Generator, duration: float, amplitude: floa
         times.append(t)
     levels = rng.uniform(-amplitude, amplitude, size=len(times) + 1)
     return np.array(times), levels
+
+
+def draw_binary_steps(rng: np.random.Generator, duration: float, amplitude: float,
+                      hold_min: float, hold_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Draw a PRBS-like step sequence: the level switches between −amplitude and +amplitude.
+
+    Each level is held for a time uniform on [hold_min, hold_max]; the first level's sign
+    is drawn at random. Every jump is 2·amplitude.
+
+    Returns
+    -------
+    switch_times : ndarray, shape (k,), s
+        Times of the jumps (the first one after ``hold_min``).
+    levels : ndarray, shape (k + 1,)
+        ±amplitude, alternating.
+    """
+    if not 0 < hold_min <= hold_max:
+        raise ValueError("random steps need 0 < hold_min <= hold_max")
+    times, t = [], 0.0
+    while t <= duration + hold_max:
+        t += rng.uniform(hold_min, hold_max)
+        times.append(t)
+    first = 1.0 if rng.uniform() < 0.5 else -1.0
+    signs = first * (-1.0) ** np.arange(len(times) + 1)
+    return np.array(times), amplitude * signs
 
 
 def gaussian_width(cutoff: float) -> float:

@@ -95,6 +95,45 @@ def build_torque_driven_limb(p, rng) -> Setup:
                   "stiffness_law": "s = sigma0(t)*(d + eps*d^3), d = y - rest_angle"})
 
 
+def ankle_perturbation(p, rng) -> tuple:
+    """The ankle platform's imposed angle: ``rest_angle`` + Gaussian-smoothed random steps.
+
+    Returns
+    -------
+    trajectory : callable (t, derivatives) -> ndarray, shape (derivatives + 1, n), rad
+    width : float
+        sd of the Gaussian smoothing, s.
+    """
+    width = gaussian_width(p["cutoff"])
+    times, levels = draw_random_steps(rng, p["duration"], p["perturbation_amplitude"],
+                                      p["hold_min"], p["hold_max"])
+    y0 = p["rest_angle"]
+
+    def trajectory(t, derivatives):
+        y = smoothed_steps(t, times, levels, width, derivatives)
+        y[0] += y0
+        return y
+
+    return trajectory, width
+
+
+def ankle_stiffness(p):
+    """K(t) = ``stiffness``·(1 + ``stiffness_variation``·sin(2πt/``variation_period``)), N·m/rad.
+
+    Returns
+    -------
+    callable (t) -> ndarray, shape (n,)
+    """
+    k, var, period = p["stiffness"], p["stiffness_variation"], p["variation_period"]
+    if k <= 0 or abs(var) >= 1 or period <= 0:
+        raise ValueError("need stiffness > 0, |stiffness_variation| < 1, variation_period > 0")
+
+    def control(t):
+        return k * (1.0 + var * np.sin(2.0 * math.pi * np.asarray(t) / period))
+
+    return control
+
+
 def build_ankle(p, rng) -> Setup:
     """Human ankle on a position-controlled platform (like the reklab recordings), position drive.
 
@@ -107,22 +146,9 @@ def build_ankle(p, rng) -> Setup:
     (60 N·m/rad, constant by default). Recorded as the torque applied *to* the joint (the
     real data record the reaction torque, of opposite sign).
     """
-    width = gaussian_width(p["cutoff"])
-    times, levels = draw_random_steps(rng, p["duration"], p["perturbation_amplitude"],
-                                      p["hold_min"], p["hold_max"])
-    y0 = p["rest_angle"]
-    k, var, period = p["stiffness"], p["stiffness_variation"], p["variation_period"]
-    if k <= 0 or abs(var) >= 1 or period <= 0:
-        raise ValueError("need stiffness > 0, |stiffness_variation| < 1, variation_period > 0")
-
-    def trajectory(t, derivatives):
-        y = smoothed_steps(t, times, levels, width, derivatives)
-        y[0] += y0
-        return y
-
-    def control(t):
-        return k * (1.0 + var * np.sin(2.0 * math.pi * np.asarray(t) / period))
-
+    trajectory, width = ankle_perturbation(p, rng)
+    control = ankle_stiffness(p)
+    k, var = p["stiffness"], p["stiffness_variation"]
     return Setup(kind="rotational", joint=_linear_joint(p, control), control=control,
                  trajectory=trajectory, max_stiffness=k * (1 + abs(var)),
                  max_damping=p["damping"],

@@ -59,7 +59,7 @@ class Setup:
     """A scenario made concrete: the joint, its input u(t) and its drive.
 
     Exactly one of ``external_torque`` (torque drive) and ``trajectory`` (position drive)
-    is given.
+    is given (with a dedicated ``plant``, ``trajectory`` is the imposed device position).
 
     Parameters
     ----------
@@ -79,6 +79,14 @@ class Setup:
         Whether the elastic torque is recorded (direct observer variant).
     metadata : Mapping[str, str]
         Scenario-specific entries for ``Trial.metadata``.
+    plant : callable (setup, term, t, fs) -> dict, optional
+        A dedicated plant for set-ups that are not one rigid body (a device coupled to the
+        limb through a spring, :mod:`.devices`): returns the dict of :func:`run` itself.
+    unrecorded_angle : callable (t) -> rad, ndarray shape (n,), optional
+        The part of the true angle that the angle channel does not record (the operating
+        point of a platform that records only the perturbation about it).
+    torque_sign : float
+        +1: the torque applied *to* the joint is recorded; −1: the reaction torque.
     """
 
     kind: str
@@ -92,6 +100,9 @@ class Setup:
     max_damping: float = 0.0
     record_elastic: bool = False
     metadata: Mapping[str, str] = field(default_factory=dict)
+    plant: Callable | None = None
+    unrecorded_angle: Callable | None = None
+    torque_sign: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -265,18 +276,26 @@ def run(setup: Setup, term: DynamicsTerm, fs: float, duration: float) -> dict:
     dict
         ndarrays of shape (n,): ``time``, ``angle``, ``velocity``, ``acceleration``,
         ``jerk``, ``control``, ``elastic_torque``, ``stiffness``, ``damping`` (generalized,
-        ∂d/∂ẏ), ``damping_torque``, ``effect_torque``, ``external_torque``; floats
-        ``inertia`` (true), ``internal_step`` (s; 0 for a position drive) and ``delay`` (s,
-        the delay actually used).
+        ∂d/∂ẏ), ``damping_torque``, ``effect_torque``, ``external_torque``,
+        ``unrecorded_angle`` (zeros unless the set-up records the angle about a moving
+        operating point); floats ``inertia`` (true), ``internal_step`` (s; 0 for a position
+        drive) and ``delay`` (s, the delay actually used). A dedicated ``setup.plant`` may
+        add entries of its own.
     """
     n = int(round(duration * fs)) + 1
     t = np.arange(n) / fs
-    m = setup.joint.inertia * term.inertia_scale
-    if setup.trajectory is not None:
-        motion = _position_drive(setup, term, t)
+    if setup.plant is not None:
+        truth = setup.plant(setup, term, t, fs)
     else:
-        motion = _torque_drive(setup, term, t, fs, m)
-    return _true_signals(setup, term, t, m, motion)
+        m = setup.joint.inertia * term.inertia_scale
+        if setup.trajectory is not None:
+            motion = _position_drive(setup, term, t)
+        else:
+            motion = _torque_drive(setup, term, t, fs, m)
+        truth = _true_signals(setup, term, t, m, motion)
+    truth["unrecorded_angle"] = (np.asarray(setup.unrecorded_angle(t), dtype=float)
+                                 if setup.unrecorded_angle is not None else np.zeros(n))
+    return truth
 
 
 @dataclass(frozen=True)

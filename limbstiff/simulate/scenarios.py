@@ -3,7 +3,8 @@
 Every scenario takes ``fs`` (Hz), ``duration`` (s), ``torque_noise`` (sd of Gaussian noise on
 the recorded torque/force, N·m or N) and ``encoder_counts`` (counts/rev of the angle
 quantisation, 0 = none) — or ``position_resolution`` (m) for translational scenarios. The
-builders live in :mod:`.paper` (Grioli & Bicchi 2010) and :mod:`.limbs` (human joints).
+builders live in :mod:`.paper` (Grioli & Bicchi 2010), :mod:`.limbs` (human joints) and
+:mod:`.devices` (joints seen through a device: compliant coupling, moving platform).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Callable, Mapping
 
+from .devices import DEVICES
 from .limbs import LIMBS
 from .paper import PAPER
 
@@ -57,7 +59,7 @@ def _ordered(defaults: Mapping[str, float]) -> Mapping[str, float]:
 SCENARIOS: dict[str, Scenario] = {
     name: Scenario(name=name, kind=kind, description=description, defaults=_ordered(defaults),
                    build=build)
-    for name, kind, description, defaults, build in PAPER + LIMBS
+    for name, kind, description, defaults, build in PAPER + LIMBS + DEVICES
 }
 
 
