@@ -16,6 +16,7 @@ import numpy as np
 from . import __version__
 from .bandwidth import CornerScan
 from .checks import ModelChecks
+from .coupling import CouplingFit
 from .estimate.estimators import EstimatorFit
 from .filtered import Filtered
 from .interval import Interval
@@ -87,6 +88,9 @@ class StiffnessResult:
         How m and b were obtained (None for the direct variant).
     checks : ModelChecks or None
         Whether the model fits the recording, and the verdict.
+    coupling : CouplingFit or None
+        A compliant coupling between limb and device found in the recorded dynamic stiffness
+        (when ``coupling.found`` the stiffness is the limb's, the series springs undone).
     corner_scan : CornerScan or None
         The model's held-out torque prediction at each low-pass corner tried (None when the
         protocol sets the corner or the chain is the paper's).
@@ -113,6 +117,7 @@ class StiffnessResult:
     identification: Identification | None = None
     checks: ModelChecks | None = None
     corner_scan: CornerScan | None = None
+    coupling: CouplingFit | None = None
     warnings: tuple[str, ...] = ()
     reference: np.ndarray | None = None
 
@@ -179,6 +184,7 @@ class StiffnessResult:
             "velocity_threshold": d.velocity_threshold,
             "observable_window_s": d.observable_window_s,
             "identification": None if self.identification is None else self.identification.to_dict(),
+            "coupling": None if self.coupling is None else self.coupling.to_dict(),
             "estimator": self.fit.to_dict(),
         }
 

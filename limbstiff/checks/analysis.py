@@ -10,6 +10,7 @@ from . import model
 from .verdict import (AGREEMENT_MAX, BAND_WIDTH_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
                       NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, UNRELIABLE, VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks,
                       check_at_least, check_at_most, finite_or_none)
+from ..coupling import ADEQUATE_CHI2, CouplingFit
 from ..estimate.kalman import NoiseLevels
 
 #: Windows of the sign test, in periods of the typical motion (as the identification's).
@@ -166,8 +167,22 @@ def _inertia_range(ident: Identification) -> Check | None:
                                                          "and the torque's sign"), CAUTION)
 
 
+def _coupling(coupling: CouplingFit | None, corrected: bool) -> Check | None:
+    if coupling is None or not coupling.found:
+        return None
+    text = (f"the angle is measured at the device, joined to the limb by a compliant coupling (resonance "
+            f"{coupling.resonance_hz:.0f} Hz, {coupling.coupling_stiffness:.0f} N·m/rad)")
+    if corrected:
+        return Check("device_coupling", coupling.two_body_chi2, ADEQUATE_CHI2, True,
+                     text + ": the stiffness shown is the limb's, the springs in series undone")
+    return Check("device_coupling", coupling.two_body_chi2, ADEQUATE_CHI2, False,
+                 text + ", and the stiffness estimate reaches the coupling's own: the limb's stiffness cannot be "
+                        "told apart from it; stiffen the attachment", UNRELIABLE)
+
+
 def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                   observable: np.ndarray, ident: Identification | None, noise: NoiseLevels) -> ModelChecks:
+                   observable: np.ndarray, ident: Identification | None, noise: NoiseLevels,
+                   coupling: CouplingFit | None = None, corrected: bool = False) -> ModelChecks:
     """Every check of one analysis.
 
     Parameters
@@ -180,6 +195,10 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
         None for the direct variant.
     noise : NoiseLevels
         The Kalman model's noise levels.
+    coupling : CouplingFit or None
+        A coupling between limb and device, when one was looked for.
+    corrected : bool
+        Whether ``stiffness`` is the limb's with the coupling's series springs undone.
 
     Returns
     -------
@@ -193,5 +212,5 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
               *_innovations(model.innovation_statistics(filtered, **kw), share),
               *_stiffness_course(stiffness, lo, hi, observable),
               _noise_levels(model.bound_margins(filtered, **kw), share), _agreement(ident), _inertia_range(ident),
-              torque_sign(filtered, inertia=m, damping=b)]
+              torque_sign(filtered, inertia=m, damping=b), _coupling(coupling, corrected)]
     return ModelChecks(tuple(c for c in checks if c is not None))
