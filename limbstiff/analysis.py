@@ -15,7 +15,7 @@ import numpy as np
 from scipy import stats
 
 from . import bandwidth
-from .coupling import CouplingFit, detect_coupling
+from .coupling import MAX_CORRECTION, CouplingFit, detect_coupling
 from .checks import ModelChecks, check_analysis
 from .checks.analysis import sign_hint
 from .errors import TrialError
@@ -160,6 +160,8 @@ def _limb_stiffness(coupling: CouplingFit | None, stiffness, lo, hi):
     """The limb's stiffness and band when a coupling was found (the one-body estimate is that of
     the springs in series); unchanged otherwise, or when the estimate reaches k_c somewhere."""
     if coupling is None or not coupling.found:
+        return stiffness, lo, hi
+    if not coupling.correction(float(np.median(stiffness))) <= MAX_CORRECTION:
         return stiffness, lo, hi
     limb = [coupling.limb_stiffness(x) for x in (stiffness, lo, hi)]
     if not np.all(np.isfinite(limb[0])):

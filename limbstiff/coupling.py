@@ -13,10 +13,14 @@ sees the springs in series, K·k_c/(K + k_c): the stiffness estimate is low by K
 :func:`detect_coupling` estimates H(f) from the recording (Welch cross-spectra), fits both
 models weighted by the estimate's own noise, and accepts the coupling only when the one-body
 model does not describe the response and the two-body model does, to within that noise
-(reduced χ² ≤ :data:`ADEQUATE_CHI2`). Measured: simulated couplings of 20–60 Hz give one body
-χ² 200–2100 and two bodies 2.0–3.4; the clean simulated ankle 2.4 (one body is enough); the
-five real ankle trials 95–263 for one body and 7–35 for two (neither describes them: a reflex,
-not a coupling, and nothing is corrected). Then :meth:`CouplingFit.limb_stiffness` undoes the
+(reduced χ² ≤ :data:`ADEQUATE_CHI2`), while one body misses it by far more than the noise
+(χ² ≥ :data:`INADEQUATE_CHI2`). Measured: simulated couplings of 20–60 Hz give one body χ²
+200–2100 and two bodies 2.0–3.4; the clean simulated ankle 2.4 (one body is enough); the five
+real ankle trials 95–263 for one body and 7–35 for two (neither describes them: a reflex, not a
+coupling, and nothing is corrected); Coulomb friction or hysteresis on the simulated ankle and
+platform 6–21 for one body and 2.9–4.1 for two — a nonlinearity the two-body model bends to,
+which the first version of this test took for a coupling (errors of 38 % to 4800 % after the
+"correction"). Then :meth:`CouplingFit.limb_stiffness` undoes the
 series springs sample by sample, keeping the stiffness's course. Pure numpy/scipy.
 """
 
@@ -33,6 +37,13 @@ from . import signals
 #: measured response to within its estimation noise (1 for a perfect model; the simulated
 #: couplings with their ±30 % stiffness course give 2.0–3.4, the real trials ≥ 7.0).
 ADEQUATE_CHI2 = 5.0
+#: Smallest reduced χ² of one body that calls for a coupling: a misfit of at least √50 ≈ 7 times
+#: the estimation noise (simulated couplings ≥ 200; nonlinear friction and hysteresis ≤ 21).
+INADEQUATE_CHI2 = 50.0
+#: Largest factor by which undoing the coupling may raise the stiffness, k_c/(k_c − K'): beyond
+#: it the coupling is softer than the limb and the limb's stiffness cannot be told apart from it
+#: (a 20 Hz coupling on the simulated 60 N·m/rad ankle needs 1.7).
+MAX_CORRECTION = 2.0
 #: Frequencies used: above this many motion frequencies (the slow motion's own harmonics), up
 #: to the signal edge, where the coherence exceeds :data:`MIN_COHERENCE`.
 LOWEST_MOTIONS, MIN_COHERENCE = 2.0, 0.5
@@ -72,8 +83,14 @@ class CouplingFit:
         """One body does not describe the response, a limb on a coupling does, with its
         resonance inside the band fitted."""
         lo, hi = self.band_hz
-        return bool(self.one_body_chi2 > ADEQUATE_CHI2 >= self.two_body_chi2 and lo <= self.resonance_hz <= hi
-                    and self.coupling_stiffness > 0)
+        return bool(self.one_body_chi2 >= INADEQUATE_CHI2 and self.two_body_chi2 <= ADEQUATE_CHI2
+                    and lo <= self.resonance_hz <= hi and self.coupling_stiffness > 0)
+
+    def correction(self, series: float) -> float:
+        """k_c/(k_c − K'): the factor undoing the series springs at stiffness ``series`` (inf at
+        or beyond k_c)."""
+        kc = self.coupling_stiffness
+        return kc / (kc - series) if series < kc else np.inf
 
     def limb_stiffness(self, series: np.ndarray) -> np.ndarray:
         """The limb's stiffness from the springs-in-series one, K = K'·k_c/(k_c − K'), (n,);
@@ -87,7 +104,7 @@ class CouplingFit:
         return {"found": self.found, "one_body_chi2": self.one_body_chi2, "two_body_chi2": self.two_body_chi2,
                 "coupling_stiffness": self.coupling_stiffness, "resonance_hz": self.resonance_hz,
                 "limb_stiffness_fit": self.limb_stiffness_fit, "band_hz": list(self.band_hz),
-                "adequate_chi2": ADEQUATE_CHI2}
+                "adequate_chi2": ADEQUATE_CHI2, "inadequate_chi2": INADEQUATE_CHI2}
 
 
 def dynamic_stiffness(angle: np.ndarray, torque: np.ndarray, fs: float):

@@ -8,7 +8,7 @@ from ..filtered import Filtered
 from ..mechanics.identification import Identification
 from . import model
 from .verdict import (AGREEMENT_MAX, BAND_WIDTH_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
-                      NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, UNRELIABLE, VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks,
+                      NEGATIVE_SHARE_MAX, NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE, VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks,
                       check_at_least, check_at_most, finite_or_none)
 from ..coupling import ADEQUATE_CHI2, CouplingFit
 from ..estimate.kalman import NoiseLevels
@@ -176,8 +176,8 @@ def _coupling(coupling: CouplingFit | None, corrected: bool) -> Check | None:
         return Check("device_coupling", coupling.two_body_chi2, ADEQUATE_CHI2, True,
                      text + ": the stiffness shown is the limb's, the springs in series undone")
     return Check("device_coupling", coupling.two_body_chi2, ADEQUATE_CHI2, False,
-                 text + ", and the stiffness estimate reaches the coupling's own: the limb's stiffness cannot be "
-                        "told apart from it; stiffen the attachment", UNRELIABLE)
+                 text + ", as soft as the limb or softer: the limb's stiffness cannot be told apart from it "
+                        "(the stiffness shown is that of both in series); stiffen the attachment", UNRELIABLE)
 
 
 def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -207,9 +207,11 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
     m = 0.0 if ident is None else ident.inertia.median
     b = 0.0 if ident is None else ident.damping.median
     kw = dict(inertia=m, damping=b, noise=noise)
-    share = float(noise.measurement) / max(float(np.var(filtered.torque)), 1e-300)
-    checks = [_heldout(model.heldout_explained(filtered, **kw)),
-              *_innovations(model.innovation_statistics(filtered, **kw), share),
+    heldout = model.heldout_explained(filtered, **kw)
+    share = float(noise.measurement) / max(model.dynamic_variance(filtered), 1e-300)
+    if heldout is not None and heldout < NEGLIGIBLE_HELDOUT:
+        share = np.inf                     # the model misses torque out of sample: judge the residual
+    checks = [_heldout(heldout), *_innovations(model.innovation_statistics(filtered, **kw), share),
               *_stiffness_course(stiffness, lo, hi, observable),
               _noise_levels(model.bound_margins(filtered, **kw), share), _agreement(ident), _inertia_range(ident),
               torque_sign(filtered, inertia=m, damping=b), _coupling(coupling, corrected)]

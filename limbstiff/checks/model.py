@@ -174,6 +174,15 @@ def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
                                 velocity_correlation=max(map(abs, xcorr), default=0.0))
 
 
+def dynamic_variance(filtered: Filtered) -> float:
+    """Variance of the torque above half the typical motion frequency, (N·m)²: the part the
+    model's one-step predictions are about (a slowly moved operating point, a drift, a tonic
+    contraction would otherwise make any residual look negligible)."""
+    from .. import signals
+    slow = signals.zero_phase_lowpass(filtered.torque, filtered.fs, 0.5 * filtered.motion_hz, order=2)
+    return float(np.var(filtered.torque - slow))
+
+
 def bound_margins(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> np.ndarray:
     """How far each noise level lies below its upper bound, in natural-log units, shape (3,):
     measurement R, torque walk Q_s, stiffness walk Q_σ (:func:`~limbstiff.estimate.kalman.noise_bounds`)."""

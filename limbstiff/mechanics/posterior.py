@@ -23,6 +23,8 @@ MIN_TAU_MULTIPLE = 50
 BLOCK_STEPS, MAX_STEPS = 250, 10_000
 #: Walkers: emcee's stretch move wants at least twice the dimension (3 noise levels).
 N_WALKERS = 8
+#: The walkers start at least this far inside the noise levels' bounds (natural-log units).
+START_MARGIN = 0.1
 #: Posterior draws kept for the bands and the draws file.
 N_DRAWS = 2000
 PARAMETERS = ("inertia", "damping", "log_measurement", "log_torque_walk", "log_stiffness_walk")
@@ -207,7 +209,10 @@ def _run_chain(problem, start, rng: np.random.Generator):
                 out[j] = problem.conditional(th)[0]
         return out
 
-    centre = np.clip(np.log([start.noise.measurement, start.noise.torque_walk, start.noise.stiffness_walk]), lo, hi)
+    # inside the bounds: walkers clipped onto a bound together would coincide, and emcee's snooker
+    # move divides by their distance (NaN proposals)
+    centre = np.clip(np.log([start.noise.measurement, start.noise.torque_walk, start.noise.stiffness_walk]),
+                     lo + START_MARGIN, hi - START_MARGIN)
     p0 = np.clip(centre + 0.05 * rng.standard_normal((N_WALKERS, 3)), lo, hi)
     # differential-evolution moves: integrated autocorrelation times of ~15 steps here against
     # ~45 with the default stretch move (the stiffness walk's posterior often rests on a bound)
