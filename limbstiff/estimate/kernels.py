@@ -47,6 +47,21 @@ def _update(p11, p12, p22, r):
     return sv, g1, g2, p11 - g1 * p11, p12 - g1 * p12, p22 - g2 * p12
 
 
+def _advance(i, d, qs, qk, s, k, p11, p12, p22):
+    """The state [s, σ] and its covariance carried to step i (unchanged at the first step)."""
+    if i > 0:
+        s = s + k * d[i]
+        p11, p12, p22 = _predict(p11, p12, p22, d[i], qs, qk)
+    return s, k, p11, p12, p22
+
+
+def _observe(zi, r, s, k, p11, p12, p22):
+    """The state updated with measurement ``zi``; also the innovation e and its variance S."""
+    sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, r)
+    e = zi - s
+    return s + g1 * e, k + g2 * e, p11, p12, p22, e, sv
+
+
 def kalman_loglik(d, z, r, qs, qk, s, k, p11, p12, p22):
     """Log-likelihood of the model of :mod:`limbstiff.estimate.kalman` (prediction-error
     decomposition); the filter pass of :func:`kalman_filter` keeping no moments."""
@@ -54,13 +69,8 @@ def kalman_loglik(d, z, r, qs, qk, s, k, p11, p12, p22):
     loglik = 0.0
     log2pi = math.log(2.0 * math.pi)
     for i in range(n):
-        if i > 0:
-            s = s + k * d[i]
-            p11, p12, p22 = _predict(p11, p12, p22, d[i], qs, qk)
-        sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, r)
-        e = z[i] - s
-        s = s + g1 * e
-        k = k + g2 * e
+        s, k, p11, p12, p22 = _advance(i, d, qs, qk, s, k, p11, p12, p22)
+        s, k, p11, p12, p22, e, sv = _observe(z[i], r, s, k, p11, p12, p22)
         loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
     return loglik
 
@@ -88,14 +98,9 @@ def kalman_filter(d, z, observed, r, qs, qk, s, k, p11, p12, p22, with_loglik):
     loglik = 0.0
     log2pi = math.log(2.0 * math.pi)
     for i in range(n):
-        if i > 0:
-            s = s + k * d[i]
-            p11, p12, p22 = _predict(p11, p12, p22, d[i], qs, qk)
+        s, k, p11, p12, p22 = _advance(i, d, qs, qk, s, k, p11, p12, p22)
         if observed[i]:
-            sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, r)
-            e = z[i] - s
-            s = s + g1 * e
-            k = k + g2 * e
+            s, k, p11, p12, p22, e, sv = _observe(z[i], r, s, k, p11, p12, p22)
             if with_loglik:
                 loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
         mean[i, 0] = s
@@ -113,13 +118,8 @@ def kalman_innovations(d, z, r, qs, qk, s, k, p11, p12, p22):
     innovation = np.empty(n)
     variance = np.empty(n)
     for i in range(n):
-        if i > 0:
-            s = s + k * d[i]
-            p11, p12, p22 = _predict(p11, p12, p22, d[i], qs, qk)
-        sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, r)
-        e = z[i] - s
-        s = s + g1 * e
-        k = k + g2 * e
+        s, k, p11, p12, p22 = _advance(i, d, qs, qk, s, k, p11, p12, p22)
+        s, k, p11, p12, p22, e, sv = _observe(z[i], r, s, k, p11, p12, p22)
         innovation[i] = e
         variance[i] = sv
     return innovation, variance
@@ -272,7 +272,7 @@ def _compile():
         return False
     g = globals()
     # callees first, so that the compiled callers call compiled code
-    for name in ("_predict", "_update", "linear_recursion", "kalman_filter", "kalman_innovations", "kalman_loglik",
+    for name in ("_predict", "_update", "_advance", "_observe", "linear_recursion", "kalman_filter", "kalman_innovations", "kalman_loglik",
                  "rts_smoother", "kalman_quadratic", "marginal_loglik"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True
