@@ -192,7 +192,8 @@ def detect_coupling(angle: np.ndarray, torque: np.ndarray, fs: float, *, motion_
     two, chi_two = _fit_two_body(w, h, weight, one)
     _, kc, _, k, _, inertia = two
     # a degenerate fit (the limb's inertia driven to 0) has no resonance in any band
-    resonance = np.sqrt((kc + k) / inertia) / (2 * np.pi) if inertia > 0 else np.inf
+    with np.errstate(over="ignore", divide="ignore"):
+        resonance = np.sqrt((kc + k) / inertia) / (2 * np.pi) if inertia > 0 else np.inf
     return CouplingFit(one_body_chi2=chi_one, two_body_chi2=chi_two, coupling_stiffness=float(kc),
                        resonance_hz=float(resonance), limb_stiffness_fit=float(k),
                        band_hz=(float(freq[use][0]), float(freq[use][-1])))

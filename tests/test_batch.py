@@ -47,10 +47,12 @@ def test_resume_after_a_killed_batch(trial_file, tmp_path):
     proc.wait()
     done = sorted(p.parent.name for p in out.glob("*/summary.json"))
     assert 2 <= len(done) < 6, "the batch should have been killed mid-run"
-    # every finished trial is complete, and summary.csv (rewritten after each trial) lists them
+    # every finished trial is complete, and summary.csv (rewritten atomically after each trial)
+    # lists them — all but the one whose outputs were written when the kill came, at most, since
+    # the table is rewritten just after a trial's last file
     assert all(_complete(out / name, 2000) for name in done)
     table = pd.read_csv(out / "summary.csv")
-    assert set(done) <= set(table["trial"]) and set(table["status"]) == {"ok"}
+    assert set(table["trial"]) <= set(done) and len(done) - len(table) <= 1 and set(table["status"]) == {"ok"}
     stamps = {name: (out / name / "summary.json").stat().st_mtime_ns for name in done}
 
     res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume")

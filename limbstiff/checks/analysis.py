@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..coupling import ADEQUATE_CHI2, CouplingFit
+from ..estimate.kalman import NoiseLevels
 from ..filtered import Filtered
 from ..mechanics.identification import Identification
 from . import model
 from .verdict import (AGREEMENT_MAX, BAND_WIDTH_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
-                      NEGATIVE_SHARE_MAX, NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE, VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks,
-                      check_at_least, check_at_most, finite_or_none)
-from ..coupling import ADEQUATE_CHI2, CouplingFit
-from ..estimate.kalman import NoiseLevels
+                      NEGATIVE_SHARE_MAX, NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE,
+                      VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks, check_at_least, check_at_most,
+                      finite_or_none)
 
 #: Windows of the sign test, in periods of the typical motion (as the identification's).
 SIGN_WINDOW_PERIODS = 4.0
