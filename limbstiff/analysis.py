@@ -16,7 +16,7 @@ from scipy import stats
 
 from . import bandwidth
 from .coupling import MAX_CORRECTION, CouplingFit, detect_coupling
-from .checks import ModelChecks, check_analysis
+from .checks import check_analysis
 from .checks.analysis import sign_hint
 from .errors import TrialError
 from .estimate import estimators, observer
@@ -169,6 +169,10 @@ def _limb_stiffness(coupling: CouplingFit | None, stiffness, lo, hi):
     return limb[0], limb[1], np.where(np.isfinite(limb[2]), limb[2], np.inf)
 
 
+def _corner_text(corner_hz: float | None) -> str:
+    return "no filter" if corner_hz is None else f"{corner_hz:.3g} Hz"
+
+
 def _observable(filtered: Filtered, derived: DerivedSettings) -> np.ndarray:
     observable = observer.informed(filtered.velocity, observer_gain=derived.observer_gain,
                                    sample_period=filtered.sample_period, window=derived.observable_window_s,
@@ -182,9 +186,10 @@ def _warnings(trial: Trial, ident: Identification | None, observable: np.ndarray
               scan: bandwidth.CornerScan | None) -> tuple[str, ...]:
     warnings = list(trial.warnings)
     if scan is not None and scan.gain > CORNER_GAIN_WARNING:
-        warnings.append(f"above {scan.chosen_hz:.3g} Hz the torque holds what the model cannot explain (a resonance "
-                        f"or coupling of the set-up?): filtered at {scan.chosen_hz:.3g} Hz instead of "
-                        f"{scan.spectral_hz:.3g} Hz, the model predicts {100 * scan.gain:.0f} % more of the torque")
+        chosen, spectral = (_corner_text(c) for c in (scan.chosen_hz, scan.spectral_hz))
+        warnings.append(f"above {chosen} the torque holds what the model cannot explain (a resonance or coupling of "
+                        f"the set-up?): filtered at {chosen} instead of {spectral}, the model predicts "
+                        f"{100 * scan.gain:.0f} % more of the torque")
     if ident is not None:
         warnings += list(ident.warnings)
         if ident.inertia_in_expected_range is False:

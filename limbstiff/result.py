@@ -8,7 +8,7 @@ itself into the contract's outputs: :meth:`StiffnessResult.to_frame` (the rows o
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np

@@ -182,3 +182,14 @@ def test_walkers_starting_on_a_bound_do_not_fail():
     # move then divided by zero ("At least one parameter value was NaN")
     result = limbstiff.analyze(simulate("ankle", seed=4, params={"duration": 20.0}, effect="reflex"), seed=4)
     assert np.isfinite(result.stiffness).all() and result.identification.posterior.diagnostics.converged
+
+
+@pytest.mark.parametrize("spring", [2, 3])
+def test_steep_exponential_springs_the_estimator_misses_are_flagged(spring):
+    # A known failure, kept visible: the paper's springs 2 and 3 (stiffness ×25 within a cycle)
+    # outrun the stiffness walk's bound (σ²·f_motion with the secant stiffness), and the default
+    # estimate is 75–350 % off (measured; a bound 100× higher gives 0.02 % on spring 2). Until
+    # the bound follows the local slope, the verdict must say so (the bundled example is spring 2).
+    result = limbstiff.analyze(simulate("paper-exp-spring", params={"spring": spring, "duration": 10.0}), seed=0)
+    assert result.reference_error()["median"] > 0.5
+    assert result.verdict != OK and "noise_levels_at_bounds" in _failed(result)

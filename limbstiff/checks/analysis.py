@@ -66,7 +66,7 @@ def sign_hint(filtered: Filtered) -> str | None:
 def _heldout(value: float | None) -> Check:
     if value is None:
         return Check("heldout_torque_explained", None, HELDOUT_CAUTION, True,
-                     "too short to leave whole motion periods out (fewer than five blocks of two periods, "
+                     "too short to leave whole motion periods out (fewer than three blocks of two periods, "
                      "or too few model steps)")
     text = f"the model predicts {100 * max(value, 0):.0f} % of the torque on motion periods it was not fitted on"
     if value < HELDOUT_UNRELIABLE:
@@ -210,8 +210,8 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
     kw = dict(inertia=m, damping=b, noise=noise)
     heldout = model.heldout_explained(filtered, **kw)
     share = float(noise.measurement) / max(model.dynamic_variance(filtered), 1e-300)
-    if heldout is not None and heldout < NEGLIGIBLE_HELDOUT:
-        share = np.inf                     # the model misses torque out of sample: judge the residual
+    if heldout is None or heldout < NEGLIGIBLE_HELDOUT:
+        share = np.inf      # not shown to predict the torque out of sample: the residual is judged
     checks = [_heldout(heldout), *_innovations(model.innovation_statistics(filtered, **kw), share),
               *_stiffness_course(stiffness, lo, hi, observable),
               _noise_levels(model.bound_margins(filtered, **kw), share), _agreement(ident), _inertia_range(ident),

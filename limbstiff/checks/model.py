@@ -27,6 +27,8 @@ from ..filtered import Filtered
 HELDOUT_PERIODS = 2.0
 #: Blocks are dealt to this many folds in turn; each fold is left out once.
 HELDOUT_FOLDS = 5
+#: Fewest folds (blocks) a held-out score is computed on; a trial with fewer is too short.
+MIN_FOLDS = 3
 #: Innovation lags (filter steps) of the whiteness statistic.
 WHITENESS_LAGS = 10
 #: Longest lag of the innovations behind the velocity, s: a stretch reflex answers in 20–80 ms.
@@ -73,17 +75,18 @@ def heldout_prediction(filtered: Filtered, *, inertia: float, damping: float,
         The samples of the model's steps.
     torque : ndarray, shape (k,), N·m
         The torque predicted there, every step held out once.
-    None when the trial has fewer blocks than folds or fewer than :data:`MIN_STEPS` steps.
+    None when the trial has fewer than :data:`MIN_FOLDS` blocks or :data:`MIN_STEPS` steps.
     """
     st = _steps(filtered, inertia, damping)
     if len(st.index) < MIN_STEPS:
         return None
     block = np.floor(np.arange(len(st.index)) * st.step * filtered.motion_hz / HELDOUT_PERIODS).astype(int)
-    if block[-1] + 1 < HELDOUT_FOLDS:
+    folds = min(HELDOUT_FOLDS, block[-1] + 1)       # a short trial: each of its blocks left out in turn
+    if folds < MIN_FOLDS:
         return None
-    fold = block % HELDOUT_FOLDS
+    fold = block % folds
     elastic = np.empty(len(st.index))
-    for j in range(HELDOUT_FOLDS):
+    for j in range(folds):
         left_out = fold == j
         smoothed = kalman_smoother(st.increments, st.measured, noise, step=st.step, initial_mean=st.initial_mean,
                                    initial_cov=st.initial_cov, loglik=False, observed=~left_out)

@@ -61,7 +61,8 @@ AGREEMENT_MAX = 0.2
 #: scenarios) sit at 10⁻⁶, where the residual is the integration's own error; the simulated limbs
 #: (2·10⁻⁴–2·10⁻³) and the real ankle (6·10⁻² on z_df) are checked.
 NEGLIGIBLE_RESIDUAL = 1e-4
-#: … and only where the model also predicts at least this share of the torque out of sample:
+#: … and only where the model is shown to predict at least this share of the torque out of sample
+#: (a trial too short to hold out whole periods is judged):
 #: the noise-free paper scenarios do (0.99–1.00); a nearly noise-free platform with a stretch
 #: reflex does not (0.954–0.958, stiffness 25–56 % off), and its residual's structure then counts.
 NEGLIGIBLE_HELDOUT = 0.99
