@@ -198,14 +198,21 @@ def draw_random_steps(rng: np.random.Generator, duration: float, amplitude: floa
     levels : ndarray, shape (k + 1,)
         Level before the first jump, then after each jump.
     """
+    times = _switch_times(rng, duration, hold_min, hold_max)
+    levels = rng.uniform(-amplitude, amplitude, size=len(times) + 1)
+    return np.array(times), levels
+
+
+def _switch_times(rng: np.random.Generator, duration: float, hold_min: float, hold_max: float) -> list[float]:
+    """Times of the jumps, s: each level held for a time uniform on [hold_min, hold_max], until
+    past ``duration`` + ``hold_max``."""
     if not 0 < hold_min <= hold_max:
         raise ValueError("random steps need 0 < hold_min <= hold_max")
     times, t = [], 0.0
     while t <= duration + hold_max:
         t += rng.uniform(hold_min, hold_max)
         times.append(t)
-    levels = rng.uniform(-amplitude, amplitude, size=len(times) + 1)
-    return np.array(times), levels
+    return times
 
 
 def draw_binary_steps(rng: np.random.Generator, duration: float, amplitude: float,
@@ -222,12 +229,7 @@ def draw_binary_steps(rng: np.random.Generator, duration: float, amplitude: floa
     levels : ndarray, shape (k + 1,)
         ±amplitude, alternating.
     """
-    if not 0 < hold_min <= hold_max:
-        raise ValueError("random steps need 0 < hold_min <= hold_max")
-    times, t = [], 0.0
-    while t <= duration + hold_max:
-        t += rng.uniform(hold_min, hold_max)
-        times.append(t)
+    times = _switch_times(rng, duration, hold_min, hold_max)
     first = 1.0 if rng.uniform() < 0.5 else -1.0
     signs = first * (-1.0) ** np.arange(len(times) + 1)
     return np.array(times), amplitude * signs
