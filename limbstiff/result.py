@@ -18,6 +18,7 @@ from .bandwidth import CornerScan
 from .checks import ModelChecks
 from .coupling import CouplingFit
 from .estimate.estimators import EstimatorFit
+from .estimate.observer import informed_samples
 from .filtered import Filtered
 from .interval import Interval
 from .mechanics.identification import Identification
@@ -188,16 +189,26 @@ class StiffnessResult:
             "estimator": self.fit.to_dict(),
         }
 
+    def informed_stiffness(self) -> tuple[Interval, float, float]:
+        """The trial's typical stiffness over its informed samples (all when none is).
+
+        Returns
+        -------
+        median : Interval
+            Medians of the estimate and of its band's bounds, N·m/rad (N/m).
+        low, high : float
+            Smallest and largest estimate, N·m/rad (N/m).
+        """
+        obs = informed_samples(self.observable)
+        stiffness = self.stiffness[obs]
+        median = Interval(float(np.median(stiffness)), float(np.median(self.stiffness_lo[obs])),
+                          float(np.median(self.stiffness_hi[obs])))
+        return median, float(np.min(stiffness)), float(np.max(stiffness))
+
     def summary(self) -> dict:
         """The content of ``summary.json`` (INTERFACE.md section 4), JSON-ready."""
-        obs = self.observable if np.any(self.observable) else np.ones_like(self.observable)
-        stiffness = {
-            "median": float(np.median(self.stiffness[obs])),
-            "lo": float(np.median(self.stiffness_lo[obs])),
-            "hi": float(np.median(self.stiffness_hi[obs])),
-            "min": float(np.min(self.stiffness[obs])),
-            "max": float(np.max(self.stiffness[obs])),
-        }
+        median, low, high = self.informed_stiffness()
+        stiffness = dict(median.to_dict(), min=low, max=high)
         trial = self.trial
         return {
             "trial": trial.name,

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..coupling import ADEQUATE_CHI2, CouplingFit
 from ..estimate.kalman import NoiseLevels
+from ..estimate.observer import informed_samples
 from ..filtered import Filtered
 from ..mechanics.identification import Identification
 from . import model
@@ -107,7 +108,7 @@ def _innovations(stats: model.InnovationStatistics | None, share: float) -> list
 
 
 def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
-    informed = observable if np.any(observable) else np.ones_like(observable)
+    informed = informed_samples(observable)
     negative = float(np.mean(stiffness[informed] < 0))
     median = float(np.median(stiffness[informed]))
     width = float(np.median((hi - lo)[informed])) / abs(median) if median != 0 else np.inf

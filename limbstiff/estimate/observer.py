@@ -162,3 +162,10 @@ def informed(velocity: np.ndarray, *, observer_gain: float, sample_period: float
     k = np.arange(1, len(velocity) + 1)
     recent = path[k] - path[np.maximum(k - lag, 0)]
     return observer_gain * recent > -np.log(forgotten)
+
+
+def informed_samples(observable: np.ndarray) -> np.ndarray:
+    """The samples a trial-level statistic is taken over: the informed ones, or all of them when
+    none is (bool, shape (n,))."""
+    observable = np.asarray(observable, dtype=bool)
+    return observable if observable.any() else np.ones_like(observable)

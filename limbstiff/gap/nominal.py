@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..estimate.observer import informed_samples
 from .channels import Channels
 
 #: Motion periods per nuisance window: the identification's local-linear elastic window
@@ -276,7 +277,7 @@ def noise_floor(ch: Channels, lay: Layout) -> float:
     (its in-band level exceeds the floor), so this is a lower bound.
     """
     freq = np.linspace(0.0, 0.5 * ch.fs, 4097)
-    k = float(np.median(ch.stiffness[ch.observable])) if np.any(ch.observable) else float(np.median(ch.stiffness))
+    k = float(np.median(ch.stiffness[informed_samples(ch.observable)]))
     w = 2 * np.pi * freq
     z2 = (k - ch.inertia * w ** 2) ** 2 + (ch.damping * w) ** 2
     power = np.trapezoid(filter_power(freq, ch) * (ch.torque_floor + z2 * ch.angle_floor), freq)

@@ -32,8 +32,7 @@ BLOCKS = 5
 
 def _median_stiffness(result) -> float:
     """Median estimated stiffness over the observable samples (all when none is), N·m/rad."""
-    obs = result.observable if np.any(result.observable) else np.ones_like(result.observable)
-    return float(np.median(result.stiffness[obs]))
+    return result.informed_stiffness()[0].median
 
 
 def _corrected_trial(trial: Trial, ch: Channels, corr) -> Trial:

@@ -12,7 +12,7 @@ import textwrap
 
 import numpy as np
 
-from ..interval import Interval
+from ..estimate.observer import informed_samples
 from .common import (FONT, envelope, envelope_band, fmt, fmt_interval, new_page, robust_limits, shade_false,
                      text_panel)
 
@@ -76,7 +76,7 @@ def _verdict_box(fig, result, y: float) -> float:
 def _summary_rows(result) -> list[tuple[str, str]]:
     """(label, text) of each line at the top of the summary page."""
     trial, u, ci = result.trial, result.trial.units, result.ci_level
-    median, low, high = _informed_stiffness(result)
+    median, low, high = result.informed_stiffness()
     rows = [
         ("Trial", trial.name),
         ("Source", trial.source or "(in memory)"),
@@ -93,23 +93,6 @@ def _summary_rows(result) -> list[tuple[str, str]]:
         rows.append(("Error vs reference", f"median {100 * err['median']:.2f} %, 90th percentile "
                                            f"{100 * err['p90']:.2f} %, band covers it {100 * err['coverage']:.0f} %"))
     return rows
-
-
-def _informed_stiffness(result) -> tuple[Interval, float, float]:
-    """Typical stiffness over the informed samples (all samples when none is), as in ``summary.json``.
-
-    Returns
-    -------
-    median : Interval
-        Medians of the estimate and of its band's bounds, N·m/rad (N/m).
-    low, high : float
-        Smallest and largest estimate, N·m/rad (N/m).
-    """
-    obs = result.observable if np.any(result.observable) else np.ones_like(result.observable)
-    stiffness = result.stiffness[obs]
-    median = Interval(float(np.median(stiffness)), float(np.median(result.stiffness_lo[obs])),
-                      float(np.median(result.stiffness_hi[obs])))
-    return median, float(np.min(stiffness)), float(np.max(stiffness))
 
 
 def _mechanics_text(result, name: str) -> str:
@@ -180,7 +163,7 @@ def _stiffness_axes(ax, result, *, reference: bool = True) -> None:
     ax.plot(*envelope(t, result.stiffness), lw=0.8, color="C0", label="estimate")
     if reference and result.reference is not None:
         ax.plot(*envelope(t, result.reference), lw=0.9, color="k", ls="--", label="reference")
-    obs = result.observable if result.observable.any() else np.ones_like(result.observable)
+    obs = informed_samples(result.observable)
     values = [result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs]]
     if reference and result.reference is not None:
         values.append(result.reference[obs])
