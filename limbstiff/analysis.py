@@ -66,8 +66,8 @@ def filter_for_model(trial: Trial, protocol: Protocol) -> tuple[Filtered, bandwi
     (:func:`bandwidth.scan_corners`), or at the protocol's corner when it gives one."""
     if not bandwidth.scans(protocol):
         return filter_trial(trial, protocol), None
-    scan = bandwidth.scan_corners(trial, protocol)
-    return filter_trial(trial, protocol, corner_hz=scan.chosen_hz), scan
+    scan, filtered = bandwidth.scan_corners(trial, protocol)
+    return (filtered if filtered is not None else filter_trial(trial, protocol, corner_hz=scan.chosen_hz)), scan
 
 
 def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int = 0) -> Identification:

@@ -116,7 +116,7 @@ def scans(protocol: Protocol) -> bool:
     return protocol.derivatives == "zero-phase" and protocol.bandwidth_hz is None
 
 
-def scan_corners(trial: Trial, protocol: Protocol) -> CornerScan:
+def scan_corners(trial: Trial, protocol: Protocol) -> tuple[CornerScan, Filtered | None]:
     """Score the model's held-out torque prediction at each corner; keep the highest within
     :data:`SCORE_TOLERANCE` of the best (the spectral corner when nothing can be scored).
 
@@ -128,20 +128,25 @@ def scan_corners(trial: Trial, protocol: Protocol) -> CornerScan:
 
     Returns
     -------
-    CornerScan
+    scan : CornerScan
+    filtered : Filtered or None
+        The trial filtered at the corner kept, when the scan filtered the whole trial (at most
+        :data:`SCAN_SECONDS` long); None for a longer trial, of which only the middle was scanned.
     """
     part = _middle(trial)
     spectral = filter_trial(part, protocol)
     corners = corners_to_try(spectral)
     recorded = part.torque if spectral.variant == "external" else part.elastic_torque
     reference = spectral.chain.apply(recorded, 0)[0]
-    scores = []
+    scores, kept = [], {}
     for c in corners:
         filtered = spectral if c == spectral.cutoff_hz else filter_trial(part, protocol, corner_hz=c)
         scores.append(_score(filtered, reference))
+        if part is trial:
+            kept[c] = filtered
     valid = [(c, s) for c, s in zip(corners, scores) if s is not None]
     chosen = spectral.cutoff_hz
     if valid:
         best = max(s for _, s in valid)
         chosen = [c for c, s in valid if s >= best - SCORE_TOLERANCE][0]
-    return CornerScan(tuple(corners), tuple(scores), chosen, spectral.cutoff_hz)
+    return CornerScan(tuple(corners), tuple(scores), chosen, spectral.cutoff_hz), kept.get(chosen)
