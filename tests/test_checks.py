@@ -79,12 +79,12 @@ def test_innovation_checks_compare_with_their_thresholds():
     # the residual-velocity check never tripped alone in the simulations (a reflex large enough
     # is absorbed and caught by the held-out and agreement checks); its logic is tested here
     share = 1e-2                                   # a residual large enough to be judged
-    above = _innovations(InnovationStatistics(WHITENESS_MAX + 0.05, VELOCITY_CORRELATION_MAX + 0.05), share)
-    below = _innovations(InnovationStatistics(WHITENESS_MAX - 0.05, VELOCITY_CORRELATION_MAX - 0.05), share)
+    above = _innovations(InnovationStatistics(WHITENESS_MAX + 0.05, VELOCITY_CORRELATION_MAX + 0.05), False, share)
+    below = _innovations(InnovationStatistics(WHITENESS_MAX - 0.05, VELOCITY_CORRELATION_MAX - 0.05), False, share)
     assert [c.passed for c in above] == [False, False]
     assert [c.passed for c in below] == [True, True]
     # a negligible residual (noise-free data) passes whatever its structure
-    assert all(c.passed for c in _innovations(InnovationStatistics(0.99, 0.9), 1e-7))
+    assert all(c.passed for c in _innovations(InnovationStatistics(0.99, 0.9), True, 1e-7))
 
 
 def test_noise_level_at_its_bound_fails():

@@ -84,12 +84,12 @@ def _negligible(name: str, value: float | None, threshold: float, share: float) 
                                                "torque's spread): its structure does not matter")
 
 
-def _innovations(stats: model.InnovationStatistics | None, share: float) -> list[Check]:
+def _innovations(stats: model.InnovationStatistics | None, negligible: bool, share: float) -> list[Check]:
     if stats is None:
         return [Check(name, None, limit, True, "too few model steps to judge the residual")
                 for name, limit in (("residual_whiteness", WHITENESS_MAX),
                                     ("residual_velocity_correlation", VELOCITY_CORRELATION_MAX))]
-    if share < NEGLIGIBLE_RESIDUAL:
+    if negligible:
         return [_negligible("residual_whiteness", stats.autocorrelation, WHITENESS_MAX, share),
                 _negligible("residual_velocity_correlation", stats.velocity_correlation, VELOCITY_CORRELATION_MAX,
                             share)]
@@ -124,8 +124,8 @@ def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
     ]
 
 
-def _noise_levels(margins: np.ndarray, share: float) -> Check:
-    if share < NEGLIGIBLE_RESIDUAL:
+def _noise_levels(margins: np.ndarray, negligible: bool, share: float) -> Check:
+    if negligible:
         return _negligible("noise_levels_at_bounds", float(min(margins[0], margins[2])), BOUND_MARGIN, share)
     at_bound = [name for name, m in zip(("measurement noise", "torque walk", "stiffness walk"), margins)
                 if m < BOUND_MARGIN]
@@ -211,10 +211,12 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
     kw = dict(inertia=m, damping=b, noise=noise)
     heldout = model.heldout_explained(filtered, **kw)
     share = float(noise.measurement) / max(model.dynamic_variance(filtered), 1e-300)
-    if heldout is None or heldout < NEGLIGIBLE_HELDOUT:
-        share = np.inf      # not shown to predict the torque out of sample: the residual is judged
-    checks = [_heldout(heldout), *_innovations(model.innovation_statistics(filtered, **kw), share),
+    # the residual's structure is not judged where it is tiny and the model is shown to predict
+    # the torque out of sample (noise-free recordings)
+    negligible = share < NEGLIGIBLE_RESIDUAL and heldout is not None and heldout >= NEGLIGIBLE_HELDOUT
+    checks = [_heldout(heldout), *_innovations(model.innovation_statistics(filtered, **kw), negligible, share),
               *_stiffness_course(stiffness, lo, hi, observable),
-              _noise_levels(model.bound_margins(filtered, **kw), share), _agreement(ident), _inertia_range(ident),
+              _noise_levels(model.bound_margins(filtered, **kw), negligible, share), _agreement(ident),
+              _inertia_range(ident),
               torque_sign(filtered, inertia=m, damping=b), _coupling(coupling, corrected)]
     return ModelChecks(tuple(c for c in checks if c is not None))
