@@ -241,6 +241,48 @@ def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
     return sum_log_s, a
 
 
+def kalman_channel_innovations(d, chans, slopes, r, qs, qk, p11, p22, restart):
+    """The filter pass of :func:`kalman_quadratic` keeping every step's innovations.
+
+    Returns ``innovations`` (c, n), each channel's one-step prediction errors, and their common
+    variance ``variance`` (n,): for z = Σ_c w_c·chans[c] the innovations are Σ_c w_c·innovations[c]
+    (the filter is linear in the data and its gains do not depend on them).
+    """
+    nc = chans.shape[0]
+    n = chans.shape[1]
+    s = np.empty(nc)
+    sig = np.empty(nc)
+    for c in range(nc):
+        s[c] = chans[c, 0]
+        sig[c] = slopes[c]
+    innovations = np.empty((nc, n))
+    variance = np.empty(n)
+    a11 = p11
+    a12 = 0.0
+    a22 = p22
+    for i in range(n):
+        if i > 0 and restart[i]:
+            for c in range(nc):
+                s[c] = chans[c, i]
+                sig[c] = slopes[c]
+            a11 = p11
+            a12 = 0.0
+            a22 = p22
+        elif i > 0:
+            di = d[i]
+            for c in range(nc):
+                s[c] += sig[c] * di
+            a11, a12, a22 = _predict(a11, a12, a22, di, qs, qk)
+        sv, g1, g2, a11, a12, a22 = _update(a11, a12, a22, r)
+        for c in range(nc):
+            e = chans[c, i] - s[c]
+            innovations[c, i] = e
+            s[c] += g1 * e
+            sig[c] += g2 * e
+        variance[i] = sv
+    return innovations, variance
+
+
 def marginal_loglik(d, chans, slopes, r, qs, qk, p11, p22, restart):
     """Log-likelihood of the noise levels with the weights of channels 1 and 2 (−m, −b)
     integrated out under a flat prior, and their Gaussian posterior (see
@@ -273,7 +315,8 @@ def _compile():
     g = globals()
     # callees first, so that the compiled callers call compiled code
     for name in ("_predict", "_update", "_advance", "_observe", "linear_recursion", "kalman_filter", "kalman_innovations", "kalman_loglik",
-                 "rts_smoother", "kalman_quadratic", "marginal_loglik"):
+                 "rts_smoother", "kalman_quadratic", "kalman_channel_innovations",
+                 "marginal_loglik"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True
 

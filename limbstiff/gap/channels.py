@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..estimate.kalman import NoiseLevels
 from ..filtered import FilterChain, Filtered
 from ..trial import Trial
 
@@ -44,6 +45,8 @@ class Channels:
     stiffness : ndarray, shape (n,), N·m/rad
         The stiffness course the analysis estimated.
     observable : ndarray of bool, shape (n,)
+    noise : NoiseLevels or None
+        The Kalman model's noise levels the analysis fitted (None for an observer estimator).
     """
 
     name: str
@@ -60,6 +63,7 @@ class Channels:
     mechanics: str
     stiffness: np.ndarray
     observable: np.ndarray
+    noise: NoiseLevels | None = None
 
     @property
     def chain(self) -> FilterChain:
@@ -150,6 +154,33 @@ class Channels:
         """z = f − m·ÿ − b·ẏ: the torque the nominal model leaves to the elastic element (n,)."""
         return self.torque - self.inertia * self.acceleration - self.damping * self.velocity
 
+    @property
+    def identified(self) -> bool:
+        """m and b were identified from the trial: the diagnosis fits them with the effects."""
+        return self.mechanics == "identified"
+
+    def target(self) -> np.ndarray:
+        """The measurement of the diagnosis's model (n,), N·m: f when m and b are fitted with the
+        effects (:attr:`identified`), else f − m·ÿ − b·ẏ."""
+        return self.torque if self.identified else self.elastic_target()
+
+    def mechanics_columns(self) -> np.ndarray:
+        """ÿ and ẏ (2, n) when m and b are fitted with the effects, else none (0, n)."""
+        if self.identified:
+            return np.vstack([self.acceleration, self.velocity])
+        return np.zeros((0, self.n))
+
+    def spring_columns(self) -> np.ndarray:
+        """u² and u³ (2, n), u = (y − ȳ)/sd(y) (dimensionless): the static nonlinear part of the
+        spring, a stiffness that depends on the angle (N·m per unit coefficient once fitted)."""
+        u = (self.angle - self.angle.mean()) / max(float(np.std(self.angle)), 1e-300)
+        return np.vstack([u * u, u ** 3])
+
+    def nuisance_columns(self) -> np.ndarray:
+        """Columns fitted per trial in every model: :meth:`mechanics_columns` then
+        :meth:`spring_columns`, shape (k, n)."""
+        return np.vstack([self.mechanics_columns(), self.spring_columns()])
+
 
 def channels_from(trial: Trial, result) -> Channels:
     """Build the :class:`Channels` of a trial from its stiffness analysis.
@@ -177,4 +208,5 @@ def channels_from(trial: Trial, result) -> Channels:
         name=trial.name, time=np.asarray(trial.time, float), filtered=f, angle=f.angle, velocity=f.velocity,
         acceleration=f.acceleration, torque=f.torque, raw_angle=np.asarray(trial.angle, float),
         raw_torque=np.asarray(raw_torque, float), inertia=float(m), damping=float(b), mechanics=mechanics,
-        stiffness=np.asarray(result.stiffness, float), observable=np.asarray(result.observable, bool))
+        stiffness=np.asarray(result.stiffness, float), observable=np.asarray(result.observable, bool),
+        noise=result.fit.noise if result.fit is not None else None)

@@ -1,16 +1,17 @@
-"""Held-out evaluation: fit an effect on some data, score it on data it was not fitted on.
+"""Held-out evaluation: fit a model on some data, score its torque prediction on data it was not
+fitted on.
 
-Folds are whole trials when several are diagnosed together (leave one trial out), otherwise
-contiguous blocks of whole windows of the one trial. An effect's shape and amplitudes are
-fitted on the training folds; the elastic nuisance (per window, :mod:`.nominal`) is refitted on
-whatever is scored, for the nominal and the augmented model alike. Training rows within a
-*guard* of the held-out block are left out: the zero-phase filter spreads the held-out torque
-over about two corner periods, and a channel shift of up to 50 ms moves it further.
-
-A term without a parameter that carries over (sensor drift: a spline in time) cannot be scored
-on another trial or block; it is scored by predicting held-out *units* (one motion period each,
-every fifth) from the rest of the same recording, base and augmented model alike
-(:func:`evaluate_local`). Pure numpy: no I/O.
+Every trial is cut into contiguous held-out blocks of whole units (:mod:`.nominal`); fold j
+leaves out block j of every trial. A model — the nominal one plus some effects — is the Kalman
+model of :mod:`.nominal` with the effects' torques as extra measurement terms. Its noise levels
+are refitted by maximum marginal likelihood; its coefficients (the effects' amplitudes, shared by
+the trials; m and b of each trial when they are identified) are fitted by weighted least squares
+on the training folds' innovations (weights 1/S); its held-out error is the one-step-ahead
+prediction error of the torque on the left-out block. An effect's shape (delay, width…) is
+chosen on the training folds over its grid, at the current model's noise levels; the noise is
+then refitted once, at the shape chosen on all the data. Training steps within a *guard* of the
+held-out block are left out: the zero-phase filter spreads the held-out torque over about two
+corner periods, and a channel shift of up to 50 ms moves it further. Pure numpy: no I/O.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..estimate.kalman import NoiseLevels
 from . import nominal
 from .channels import Channels
 from .kinds import Effect
@@ -27,29 +29,28 @@ from .kinds import Effect
 MAX_SHIFT_S = 0.05
 #: Corner periods over which the zero-phase filter spreads a sample.
 FILTER_SPREAD_PERIODS = 2.0
-#: Interleaved folds of the local (drift) scoring.
-LOCAL_FOLDS = 5
 
 
 @dataclass(frozen=True)
 class Problem:
-    """The trials of one diagnosis, their rows and folds.
+    """The trials of one diagnosis, their steps and folds.
 
     Parameters
     ----------
     channels : tuple of Channels
     layouts : tuple of nominal.Layout
-    scheme : {"trials", "blocks"}
     guard_s : float, s
-    fold, unit, trial, deviation : ndarray, shape (R,)
-        Per row (all trials concatenated): fold, global unit id, trial index, f − f̄ (N·m).
+    fold, unit, trial : ndarray of int, shape (R,)
+        Per step (all trials concatenated): held-out block, global unit id (−1: not scored) and
+        trial index.
+    deviation : ndarray, shape (R,), N·m
+        f − f̄ per trial (zero where not scored).
     training : ndarray of bool, shape (K, R)
-        Rows usable for training when fold k is held out.
+        Steps usable for training when fold k is held out.
     """
 
     channels: tuple
     layouts: tuple
-    scheme: str
     guard_s: float
     fold: np.ndarray
     unit: np.ndarray
@@ -66,9 +67,18 @@ class Problem:
     def n_units(self) -> int:
         return int(self.unit.max()) + 1
 
+    @property
+    def scored(self) -> np.ndarray:
+        return self.unit >= 0
+
     def unit_sum(self, values: np.ndarray) -> np.ndarray:
-        """Sum of per-row ``values`` within each unit, shape (U,)."""
-        return np.bincount(self.unit, weights=values, minlength=self.n_units)
+        """Sum of per-step ``values`` within each unit, shape (U,)."""
+        s = self.scored
+        return np.bincount(self.unit[s], weights=values[s], minlength=self.n_units)
+
+    def trial_rows(self, i: int) -> slice:
+        start = sum(len(lay.rows) for lay in self.layouts[:i])
+        return slice(start, start + len(self.layouts[i].rows))
 
 
 def guard_seconds(channels) -> float:
@@ -77,7 +87,7 @@ def guard_seconds(channels) -> float:
 
 
 def build_problem(channels, *, blocks: int = 5) -> Problem:
-    """Rows, units and folds: leave-one-trial-out for several trials, else ``blocks`` blocks.
+    """Steps, units and folds: ``blocks`` contiguous blocks per trial, block j of every trial in fold j.
 
     Raises
     ------
@@ -85,119 +95,154 @@ def build_problem(channels, *, blocks: int = 5) -> Problem:
         A trial too short for its layout.
     """
     channels = tuple(channels)
-    several = len(channels) > 1
-    layouts = tuple(nominal.layout(c, blocks=1 if several else blocks) for c in channels)
+    layouts = tuple(nominal.layout(c, blocks=blocks) for c in channels)
     guard = guard_seconds(channels)
-    fold, unit, trial, dev, times = [], [], [], [], []
+    k = max(lay.n_segments for lay in layouts)
+    fold, unit, trial, dev, training = [], [], [], [], []
     offset = 0
     for i, (c, lay) in enumerate(zip(channels, layouts)):
-        fold.append(np.full(len(lay.rows), i) if several else lay.segment)
-        unit.append(lay.unit + offset)
+        fold.append(lay.segment)
+        unit.append(np.where(lay.scored, lay.unit + offset, -1))
         offset += lay.n_units
         trial.append(np.full(len(lay.rows), i))
-        dev.append(nominal.torque_deviation(c, lay))
-        times.append(c.time[lay.rows])
-    fold, unit, trial, times = map(np.concatenate, (fold, unit, trial, times))
-    k = int(fold.max()) + 1
-    training = np.ones((k, len(fold)), dtype=bool)
-    for j in range(k):
-        held = fold == j
-        training[j] &= ~held
-        if not several:
-            lo, hi = times[held].min() - guard, times[held].max() + guard
-            training[j] &= ~((times >= lo) & (times <= hi))
-    return Problem(channels=channels, layouts=layouts, scheme="trials" if several else "blocks",
-                   guard_s=guard, fold=fold, unit=unit, trial=trial, deviation=np.concatenate(dev),
-                   training=training)
+        f = c.torque[lay.rows]
+        dev.append(np.where(lay.scored, f - f[lay.scored].mean(), 0.0))
+        t = c.time[lay.rows]
+        train = np.tile(lay.scored, (k, 1))
+        for j in range(k):
+            held = lay.scored & (lay.segment == j)
+            if held.any():
+                train[j] &= ~((t >= t[held].min() - guard) & (t <= t[held].max() + guard))
+        training.append(train)
+    return Problem(channels=channels, layouts=layouts, guard_s=guard, fold=np.concatenate(fold),
+                   unit=np.concatenate(unit), trial=np.concatenate(trial), deviation=np.concatenate(dev),
+                   training=np.hstack(training))
 
 
-def compose(ch: Channels, components) -> tuple[Channels, list, list]:
-    """Apply a model's effects in order: corrected channels, regressors (p, n) and local columns."""
-    regs, local = [], []
+def compose(ch: Channels, components) -> tuple[Channels, list]:
+    """Apply a model's effects in order: corrected channels and the effects' regressors (p, n)."""
+    regs = []
     for effect, shape in components:
         term = effect.evaluate(ch, shape)
         ch = ch.with_channels(angle=term.angle, torque=term.torque)
         if term.regressors is not None:
-            (local if effect.local else regs).append(term.regressors)
-    return ch, regs, local
+            regs.append(term.regressors)
+    return ch, regs
 
 
-@dataclass
-class _TrialBase:
-    signature: tuple          # the base's channel corrections (for the cache)
-    ch: Channels
-    regs: np.ndarray          # (r, p) at rows, unprojected
-    local: np.ndarray | None  # (r, k) at rows
-    proj: nominal.Projector
-    z: np.ndarray             # projected target (r,)
-    X: np.ndarray             # projected base regressors (r, p)
+def _signature(components) -> tuple:
+    return tuple((e.name, tuple(sorted(s.items()))) for e, s in components)
 
 
-def _rows_matrix(arrays, rows):
-    return np.vstack(arrays)[:, rows].T if arrays else np.zeros((len(rows), 0))
-
-
-def _base(problem: Problem, components) -> list[_TrialBase]:
-    out = []
-    signature = tuple((e.name, tuple(sorted(s.items()))) for e, s in components
-                      if e.corrects_channel)
-    for ch0, lay in zip(problem.channels, problem.layouts):
-        ch, regs, local = compose(ch0, components)
-        rows = lay.rows
-        loc = _rows_matrix(local, rows) if local else None
-        proj = nominal.projector(ch.angle[rows], ch.time[rows], lay, loc)
-        R = _rows_matrix(regs, rows)
-        out.append(_TrialBase(signature, ch, R, loc, proj, proj.project(ch.elastic_target()[rows]),
-                              proj.project(R)))
-    return out
-
-
-def _term_rows(problem, i, b, effect, shape):
-    """An effect's term at the rows of trial ``i``: (angle rows (r,) or None, target rows (r,) or
-    None, regressors (r, p) or None), cached while the base's channels stay the same."""
-    key = (i, b.signature, effect.name, tuple(sorted(shape.items())))
+def _composed(problem: Problem, i: int, components, keep: bool = True) -> tuple[Channels, nominal.Steps]:
+    """Trial ``i``'s channels corrected by the model's effects, and the model's data at its steps:
+    target, m and b columns when identified, the effects' regressors (cached per model when
+    ``keep``)."""
+    key = ("steps", i, _signature(components))
     hit = problem.cache.get(key)
     if hit is None:
-        rows = problem.layouts[i].rows
-        term = effect.evaluate(b.ch, shape)
-        y = z = None
-        if term.angle is not None or term.torque is not None:
-            ch = b.ch.with_channels(angle=term.angle, torque=term.torque)
-            z = ch.elastic_target()[rows]
-            y = None if term.angle is None else ch.angle[rows]
-        regs = None if term.regressors is None else term.regressors[:, rows].T.copy()
-        hit = problem.cache[key] = (y, z, regs)
+        ch0, lay = problem.channels[i], problem.layouts[i]
+        ch, regs = compose(ch0, components)
+        rows = lay.rows
+        chans = [ch.target()[None, rows], ch.nuisance_columns()[:, rows]] + [r[:, rows] for r in regs]
+        hit = (ch, nominal.Steps(angle=ch.angle[rows], channels=np.vstack(chans), scale=ch0.torque[rows],
+                                 step=lay.step_s))
+        if keep:
+            problem.cache[key] = hit
     return hit
 
 
-def _design(problem, bases, effect: Effect | None, shape, share: list | None = None):
-    """Projected target (R,) and regressors (R, p_base + p_effect) of base + effect at shape.
+def trial_steps(problem: Problem, i: int, components, effect: Effect | None = None,
+                shape: dict | None = None) -> nominal.Steps:
+    """The model's data at trial ``i``'s steps, with the candidate ``effect`` at ``shape`` last.
 
-    ``share``, when given, receives per trial the norm of the effect's projected regressors over
-    that of its centred raw ones: the part of its torque the elastic nuisance cannot take up."""
-    zs, Xs = [], []
-    for i, (b, lay) in enumerate(zip(bases, problem.layouts)):
-        rows = lay.rows
-        if effect is None:
-            zs.append(b.z)
-            Xs.append(b.X)
-            continue
-        y, z_raw, regs = _term_rows(problem, i, b, effect, shape)
-        proj, z = b.proj, b.z
-        if y is not None:
-            proj = nominal.projector(y, b.ch.time[rows], lay, b.local)
-        if z_raw is not None:
-            z = proj.project(z_raw)
-        X = b.X if proj is b.proj else proj.project(b.regs)
-        if regs is not None:
-            projected = proj.project(regs)
-            if share is not None:
-                raw = np.linalg.norm(regs - regs.mean(0))
-                share.append(float(np.linalg.norm(projected) / raw) if raw > 0 else 0.0)
-            X = np.column_stack([X, projected])
-        zs.append(z)
-        Xs.append(X)
-    return np.concatenate(zs), np.vstack(Xs)
+    A candidate's regressors are cached per shape (their full-rate evaluation is the costly
+    part); a candidate that corrects a channel gives a new model each time."""
+    ch, base = _composed(problem, i, components)
+    if effect is None:
+        return base
+    if effect.corrects_channel:
+        return _composed(problem, i, list(components) + [(effect, shape)], keep=False)[1]
+    corrections = _signature([(e, s) for e, s in components if e.corrects_channel])
+    key = ("term", i, corrections, effect.name, tuple(sorted(shape.items())))
+    regs = problem.cache.get(key)
+    if regs is None:
+        regs = problem.cache[key] = effect.evaluate(ch, shape).regressors[:, problem.layouts[i].rows]
+    return nominal.Steps(angle=base.angle, channels=np.vstack([base.channels, regs]), scale=base.scale,
+                         step=base.step)
+
+
+def _noise(problem: Problem, components, effect=None, shape=None, start=None) -> list[NoiseLevels]:
+    """Each trial's noise levels for the model, by maximum marginal likelihood (cached per model,
+    so that a candidate once chosen keeps the levels it was judged with)."""
+    model = list(components) + ([(effect, shape)] if effect is not None else [])
+    key = ("noise", _signature(model))
+    hit = problem.cache.get(key)
+    if hit is None:
+        hit = []
+        for i, ch in enumerate(problem.channels):
+            st = trial_steps(problem, i, components, effect, shape)
+            first = start[i] if start is not None else nominal.start_noise(ch, st)
+            hit.append(nominal.fit_noise(st, start=first, motion_hz=ch.motion_hz))
+        problem.cache[key] = hit
+    return hit
+
+
+@dataclass(frozen=True)
+class Design:
+    """A model's innovations over all trials' steps, as a regression.
+
+    Parameters
+    ----------
+    target : ndarray, shape (R,), N·m
+        Innovations of the target channel.
+    columns : ndarray, shape (R, P), N·m per unit coefficient
+        Innovations of the fitted columns: first each trial's nuisance (m and b when identified,
+        the static nonlinear spring; zero on the other trials' steps), then the effects'
+        regressors (shared by the trials).
+    weight : ndarray, shape (R,), 1/(N·m)
+        1/√S: the innovations' standard deviation under the model.
+    n_nuisance : int
+        Columns that belong to one trial.
+    raw_norm : float
+        Norm of the candidate's regressors before filtering (N·m per unit coefficient), 0 without one.
+    """
+
+    target: np.ndarray
+    columns: np.ndarray
+    weight: np.ndarray
+    n_nuisance: int
+    raw_norm: float = 0.0
+
+    def fit(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted least squares on several row subsets (bool (K, R)): coefficients (K, P) and
+        the weighted residual sums of squares (K,)."""
+        w = self.weight
+        return _fold_fits(self.target * w, self.columns * w[:, None], rows)
+
+
+def design(problem: Problem, components, noise, effect: Effect | None = None, shape: dict | None = None) -> Design:
+    """The model's :class:`Design` at the trials' noise levels ``noise`` (one per trial)."""
+    per = [trial_steps(problem, i, components, effect, shape) for i in range(len(problem.channels))]
+    n_own = [len(ch.nuisance_columns()) for ch in problem.channels]
+    k_own = sum(n_own)
+    n_shared = per[0].channels.shape[0] - 1 - n_own[0]
+    rows = len(problem.fold)
+    target, weight = np.empty(rows), np.empty(rows)
+    columns = np.zeros((rows, k_own + n_shared))
+    raw = 0.0
+    col = 0
+    for i, (st, k) in enumerate(zip(per, n_own)):
+        sl = problem.trial_rows(i)
+        e, var = st.innovations(noise[i])
+        target[sl], weight[sl] = e[0], 1.0 / np.sqrt(var)
+        columns[sl, col:col + k] = e[1:1 + k].T
+        columns[sl, k_own:] = e[1 + k:].T
+        col += k
+        if effect is not None and effect.amplitudes:
+            last = st.channels[-len(effect.amplitudes):]
+            raw += float(np.sum((last - last.mean(axis=1, keepdims=True)) ** 2))
+    return Design(target, columns, weight, k_own, float(np.sqrt(raw)))
 
 
 def _fold_fits(z: np.ndarray, X: np.ndarray, weights: np.ndarray):
@@ -233,32 +278,32 @@ def _fold_fits(z: np.ndarray, X: np.ndarray, weights: np.ndarray):
 
 @dataclass
 class Evaluation:
-    """An effect (or the base alone) fitted and scored.
+    """A model (the base, or the base with one more effect) fitted and scored.
 
     Attributes
     ----------
     effect : str or None
     unit_rss : ndarray, shape (U,)
-        Held-out sum of squared residuals per unit (N·m²).
+        Held-out sum of squared one-step prediction errors per unit (N·m²).
     shape : dict
-        Shape fitted on all the data; ``fold_shapes`` those fitted on each fold's training data.
+        Shape fitted on all the data; ``fold_shapes`` those chosen on each fold's training data.
     coef : ndarray
-        Amplitudes of the effect fitted on all the data (after the base's).
+        The effect's amplitudes fitted on all the data (with the base's).
     base_coef : ndarray
+        The base effects' amplitudes, in the order of the base's regressors.
+    mechanics : list of (float, float) or None
+        Each trial's m and b fitted with the effects (None when they are given).
     rss_train : float
-        In-sample sum of squared residuals with everything fitted on all the data.
+        In-sample sum of squared innovations with everything fitted on all the data (N·m²).
     fitted : ndarray, shape (R,)
-        In-sample projected torque of the effect (for collinearity between candidates).
+        The effect's part of the in-sample one-step prediction (for collinearity between candidates).
     residual : ndarray, shape (R,)
-        In-sample projected residual.
-    scheme : str
-        ``"folds"`` or ``"interleaved"`` (local terms).
-    absorbed : bool
-        The effect's torque lies (to :data:`ABSORBED_SHARE`) within the elastic nuisance: not fitted.
+        In-sample innovations of the torque (N·m).
+    noise : list of NoiseLevels
+        The model's noise levels, per trial.
     share : float or None
-        Largest share of the effect's torque the nuisance cannot take up, over its shapes.
-    base_unit_rss : ndarray or None
-        The base's held-out RSS under the same scheme (given for interleaved scoring).
+        Norm of the effect's innovations over that of its centred torque: the part of its torque
+        the time-varying model cannot take up by itself.
     """
 
     effect: str | None
@@ -266,27 +311,31 @@ class Evaluation:
     shape: dict
     coef: np.ndarray
     base_coef: np.ndarray
+    mechanics: list | None
     rss_train: float
     fitted: np.ndarray
     residual: np.ndarray
+    noise: list
     fold_shapes: list = field(default_factory=list)
-    scheme: str = "folds"
-    base_unit_rss: np.ndarray | None = None
-    absorbed: bool = False
     share: float | None = None
 
 
-#: Share of an effect's torque (norm of its part the elastic nuisance cannot take up, over its
-#: own) below which the effect is *absorbed*: indistinguishable from the elastic torque in these
-#: data (a torque that depends on the angle alone, such as gravity over a small range). Its
-#: amplitude would be fitted on the 1 % residue — numerical and noise remnants — so it is not
-#: fitted (−40 dB).
-ABSORBED_SHARE = 0.01
+def _choose_shapes(problem: Problem, base_components, effect, shapes, noise):
+    """Each fold's shape (best weighted fit on its training steps) and the shape best on all."""
+    k = problem.n_folds
+    rows = np.vstack([problem.training, problem.scored[None]])
+    best = np.full(k + 1, np.inf)
+    chosen = [None] * (k + 1)
+    for shape in shapes:
+        _, rss = design(problem, base_components, noise, effect, shape).fit(rows)
+        for j in np.flatnonzero(rss < best):
+            best[j], chosen[j] = rss[j], shape
+    return chosen[:k], chosen[k]
 
 
 def evaluate(problem: Problem, base_components, effect: Effect | None = None, *,
-             shapes: list | None = None, bases=None) -> Evaluation:
-    """Fit ``effect`` (profiled over ``shapes``) on top of the base model; score it held out.
+             shapes: list | None = None) -> Evaluation:
+    """Fit the base model (with ``effect`` profiled over ``shapes``) and score it held out.
 
     Parameters
     ----------
@@ -296,95 +345,43 @@ def evaluate(problem: Problem, base_components, effect: Effect | None = None, *,
     effect : Effect or None
         None scores the base model itself.
     shapes : list of dict, optional
-        Shape grid (default: ``[{}]``).
-    bases : list, optional
-        Precomputed ``_base(problem, base_components)``.
+        Shape grid (default ``[{}]``).
 
     Returns
     -------
     Evaluation
     """
-    bases = bases if bases is not None else _base(problem, base_components)
-    shapes = shapes if shapes is not None else [{}]
-    k = problem.n_folds
-    p_base = bases[0].X.shape[1]
-    masks = problem.cache.get("fold_masks")
-    if masks is None:
-        masks = problem.cache["fold_masks"] = (np.vstack([problem.training, np.ones((1, len(problem.fold)), bool)]),
-                                               [problem.fold == j for j in range(k)])
-    weights, tests = masks
-    best_train = np.full(k, np.inf)
+    base_noise = _noise(problem, base_components)
+    if effect is None:
+        fold_shapes, shape, noise = [{}] * problem.n_folds, {}, base_noise
+    else:
+        fold_shapes, shape = _choose_shapes(problem, base_components, effect, shapes or [{}], base_noise)
+        noise = _noise(problem, base_components, effect, shape, start=base_noise)
     held = np.zeros(len(problem.fold))
-    fold_shapes = [None] * k
-    best_all = (np.inf, None, None)
-    best_share = 0.0
-    for shape in (shapes if effect is not None else [{}]):
-        share = []
-        z, X = _design(problem, bases, effect, shape, share)
-        best_share = max([best_share] + share)
-        coefs, rss = _fold_fits(z, X, weights)
-        for j in np.flatnonzero(rss[:k] < best_train):
-            best_train[j] = rss[j]
-            te = tests[j]
-            held[te] = z[te] - X[te] @ coefs[j]
-            fold_shapes[j] = shape
-        if rss[k] < best_all[0]:
-            best_all = (rss[k], shape, coefs[k])
-    rss, shape, coef = best_all
-    z, X = _design(problem, bases, effect, shape)
-    resid = z - X @ coef
-    absorbed = effect is not None and X.shape[1] > p_base and best_share < ABSORBED_SHARE
-    if absorbed:            # not fitted: score it as the base model
-        base = evaluate(problem, base_components, bases=bases)
-        return Evaluation(effect=effect.name, unit_rss=base.unit_rss, shape=dict(shape),
-                          coef=np.full(X.shape[1] - p_base, np.nan), base_coef=base.base_coef,
-                          rss_train=base.rss_train, fitted=np.zeros(len(z)), residual=base.residual,
-                          fold_shapes=[], absorbed=True, share=best_share)
+    for sh in {tuple(sorted(s.items())) for s in fold_shapes}:
+        folds = [j for j, s in enumerate(fold_shapes) if tuple(sorted(s.items())) == sh]
+        d = design(problem, base_components, noise, effect, dict(sh))
+        coefs, _ = d.fit(problem.training[folds])
+        for j, coef in zip(folds, coefs):
+            test = problem.scored & (problem.fold == j)
+            held[test] = d.target[test] - d.columns[test] @ coef
+    d = design(problem, base_components, noise, effect, shape)
+    coef = d.fit(problem.scored[None])[0][0]
+    resid = np.where(problem.scored, d.target - d.columns @ coef, 0.0)
+    p_new = len(effect.amplitudes) if effect is not None and effect.amplitudes else 0
+    p_shared = d.columns.shape[1] - d.n_nuisance
+    shared = coef[d.n_nuisance:]
+    fitted = d.columns[:, d.columns.shape[1] - p_new:] @ shared[p_shared - p_new:] if p_new else np.zeros(len(held))
+    share = None
+    if p_new and d.raw_norm > 0:
+        share = float(np.linalg.norm(d.columns[problem.scored, -p_new:]) / d.raw_norm)
+    mech = None
+    if any(ch.identified for ch in problem.channels):
+        mech, k = [], 0
+        for ch in problem.channels:
+            mech.append(tuple(coef[k:k + 2]) if ch.identified else None)
+            k += len(ch.nuisance_columns())
     return Evaluation(effect=None if effect is None else effect.name, unit_rss=problem.unit_sum(held ** 2),
-                      shape=dict(shape), coef=coef[p_base:], base_coef=coef[:p_base], rss_train=float(rss),
-                      fitted=X[:, p_base:] @ coef[p_base:], residual=resid, fold_shapes=fold_shapes,
-                      share=best_share)
-
-
-def interleaved(problem: Problem) -> Problem:
-    """The same rows dealt into :data:`LOCAL_FOLDS` interleaved folds of whole units (unit i of a
-    trial in fold i mod 5), with the guard kept out of training around every held-out unit."""
-    hit = problem.cache.get("interleaved")
-    if hit is not None:
-        return hit
-    fold = np.concatenate([lay.unit % LOCAL_FOLDS for lay in problem.layouts])
-    times = np.concatenate([c.time[lay.rows] for c, lay in zip(problem.channels, problem.layouts)])
-    training = np.ones((LOCAL_FOLDS, len(fold)), dtype=bool)
-    for j in range(LOCAL_FOLDS):
-        training[j] = fold != j
-        for i in range(len(problem.layouts)):
-            sel = problem.trial == i
-            t, held = times[sel], times[sel & (fold == j)]
-            if held.size == 0:
-                continue
-            pos = np.searchsorted(held, t)
-            near = np.zeros(len(t), dtype=bool)
-            for cand in (np.clip(pos - 1, 0, held.size - 1), np.clip(pos, 0, held.size - 1)):
-                near |= np.abs(held[cand] - t) <= problem.guard_s
-            training[j, sel] &= ~near
-    out = Problem(channels=problem.channels, layouts=problem.layouts, scheme="interleaved", guard_s=problem.guard_s,
-                  fold=fold, unit=problem.unit, trial=problem.trial, deviation=problem.deviation,
-                  training=training, cache={k: v for k, v in problem.cache.items() if k != "fold_masks"})
-    problem.cache["interleaved"] = out
-    return out
-
-
-def evaluate_local(problem: Problem, base_components, effect: Effect, *, shapes, bases=None) -> Evaluation:
-    """Score a local term (no parameter carries over: a drift spline) by predicting held-out units.
-
-    The elastic nuisance is refitted on all the data, as for every model; the term's
-    coefficients (and the base's amplitudes) are fitted on four units in five and predict the
-    fifth (:func:`interleaved`). The base model is scored the same way, and both are returned.
-    """
-    inter = interleaved(problem)
-    bases = bases if bases is not None else _base(problem, base_components)
-    base = evaluate(inter, base_components, bases=bases)
-    ev = evaluate(inter, base_components, effect, shapes=shapes, bases=bases)
-    ev.scheme = "interleaved"
-    ev.base_unit_rss = base.unit_rss
-    return ev
+                      shape=dict(shape), coef=shared[p_shared - p_new:], base_coef=shared[:p_shared - p_new],
+                      mechanics=mech, rss_train=float(np.sum(resid ** 2)), fitted=np.where(problem.scored, fitted, 0.0),
+                      residual=resid, noise=list(noise), fold_shapes=list(fold_shapes), share=share)

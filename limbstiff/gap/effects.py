@@ -3,7 +3,7 @@
 Each entry of :data:`EFFECTS` is one object of a kind from :mod:`.kinds` that adds to the
 nominal model f = m·ÿ + b·ẏ + s(y, t) either
 
-* a **torque** e = Σ aᵢ·φᵢ(y, ẏ, ÿ; shape) on the joint (friction, reflex, gravity…) — linear in
+* a **torque** e = Σ aᵢ·φᵢ(y, ẏ, ÿ; shape) on the joint (friction, reflex…) — linear in
   its amplitudes aᵢ once its shape parameters are fixed, so the amplitudes are fitted by least
   squares and the shape profiled over a small grid bounded by physics;
 * a **correction of a recorded channel** (the torque shifted in time, the angle seen through a
@@ -13,8 +13,11 @@ nominal model f = m·ÿ + b·ẏ + s(y, t) either
 A torque φ is computed from the filtered signals and passed through the same low-pass as the
 recorded torque. Grids come from the trial's own scales (:class:`~.kinds.Scales`), with the
 reason stated beside each. A new effect is one new entry of :data:`EFFECTS`. The physics shared
-with the simulator (play, Dahl hysteresis, channel delay, Coulomb friction, gravity) is in
-:mod:`limbstiff.effects`. Pure numpy/scipy: no I/O.
+with the simulator (play, Dahl hysteresis, channel delay, Coulomb friction) is in
+:mod:`limbstiff.effects`. Not in the library: gravity and sensor drift. A torque that depends on
+the angle alone (gravity on an unbalanced segment) is a generalized stiffness, which the model
+holds (its static nonlinear spring and its time-varying stiffness), and a slow drift of the
+torque offset is a walk of the elastic torque (Q_s). Pure numpy/scipy: no I/O.
 
 Sign convention (as the simulator): the effect torque e is on the left-hand side,
 f = m·ÿ + b·ẏ + s + e, so a positive friction torque opposes motion.
@@ -27,9 +30,9 @@ from functools import lru_cache
 import numpy as np
 from scipy import signal as sps
 
-from ..effects import coulomb, dahl, delay_signal, gravity, play
+from ..effects import coulomb, dahl, delay_signal, play
 from .channels import Channels
-from .kinds import ChannelCorrection, Effect, LocalTorque, MechanicsError, TorqueEffect
+from .kinds import ChannelCorrection, Effect, MechanicsError, TorqueEffect
 
 
 # --- shapes -------------------------------------------------------------------------------
@@ -119,16 +122,6 @@ def _reflex(ch, sh):
     return _activation(s * np.maximum(s * vd, 0.0), ch.fs, sh["activation_hz"])
 
 
-def _drift_basis(ch, sh):
-    """Cubic B-spline basis in time, knots ``sh['knot_interval']`` s apart: shape (p, n)."""
-    from scipy.interpolate import BSpline
-    t0, t1 = float(ch.time[0]), float(ch.time[-1])
-    step = sh["knot_interval"]
-    inner = np.arange(t0, t1 + step, step)
-    knots = np.concatenate([[inner[0]] * 3, inner, [inner[-1]] * 3])
-    return BSpline.design_matrix(np.clip(ch.time, t0, inner[-1]), knots, 3).toarray().T
-
-
 REFLEX_DELAYS_S = tuple(np.round(np.arange(0.020, 0.0801, 0.005), 3))
 #: Activation corners of the reflex torque, Hz: None, then 1/(2π·T_c) for contraction times T_c of
 #: 30, 60, 90 and 120 ms.
@@ -139,6 +132,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
     TorqueEffect(
         name="coulomb_friction", description="Coulomb friction F_c·tanh(ẏ/v_ε) opposing motion "
         "(bearings, seals, cable guides).", amplitudes=("friction_torque",),
+        units={"friction_torque": "N·m", "smoothing_velocity": "rad/s"},
         grid=lambda s: [{"smoothing_velocity": v} for v in _geom(max(s.velocity_noise, 0.003 * s.velocity),
                                                                  0.3 * s.velocity, 6)],
         grid_reason="v_ε from the velocity noise level (below it the sign of ẏ is unknown) to 0.3×RMS "
@@ -146,17 +140,17 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         torque=lambda ch, sh: coulomb(ch.velocity, sh["smoothing_velocity"])),
     TorqueEffect(
         name="quadratic_damping", description="Quadratic (turbulent, viscoelastic) damping c·ẏ|ẏ|.",
-        amplitudes=("coefficient",), grid=lambda s: [{}], grid_reason="no shape parameter",
+        amplitudes=("coefficient",), units={"coefficient": "N·m·s²/rad²"}, grid=lambda s: [{}], grid_reason="no shape parameter",
         torque=_quadratic),
     TorqueEffect(
         name="hysteresis", description="Dahl hysteresis z with dz/dy = (sgn(ẏ)·F − z)/y_c: a friction "
         "torque that builds up over the angle y_c after each reversal (soft tissue, short-range "
-        "stiffness).", amplitudes=("amplitude",),
+        "stiffness).", amplitudes=("amplitude",), units={"amplitude": "N·m", "characteristic_angle": "rad"},
         grid=lambda s: [{"characteristic_angle": v} for v in _geom(max(2 * s.angle_resolution, 0.02 * s.angle),
                                                                    s.angle, 6)],
         grid_reason="y_c from twice the angle resolution (a narrower loop is Coulomb friction) to the RMS "
         "angle (a loop that never saturates acts as a spring)",
-        torque=lambda ch, sh: dahl(ch.angle, sh["characteristic_angle"])),
+        torque=lambda ch, sh: dahl(ch.angle, sh["characteristic_angle"]), lower_limit="coulomb_friction"),
     ChannelCorrection(
         name="backlash", description="Play of total width w between the joint and the angle sensor (a "
         "gear, a loose cuff): the recorded angle stays put while the joint crosses the dead band.",
@@ -164,19 +158,22 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
                                                     0.5 * s.angle, 20)],
         grid_reason="w from twice the angle resolution or 1 % of the RMS angle (a narrower play is "
         "invisible) to half the RMS angle (a wider one would hold the recorded angle still most of the "
-        "time), 20 values: the fit is sharply peaked in w", channel="angle", correct=_backlash),
+        "time), 20 values: the fit is sharply peaked in w", channel="angle", correct=_backlash,
+        units={"width": "rad"}),
     ChannelCorrection(
         name="time_delay", description="The torque channel lags the angle channel by d (unmatched "
         "anti-aliasing filters, amplifiers, a bus); d < 0: the angle lags.",
         grid=lambda s: [{"delay": float(d)} for d in TIME_DELAYS_S],
         grid_reason="±50 ms in 1 ms steps: longer lags are a broken set-up, and beyond 20 ms a lag "
-        "overlaps the reflex loop", channel="torque",
+        "overlaps the reflex loop", channel="torque", units={"delay": "s"},
         # f_recorded(t) = f(t − d): the torque the joint saw at t is the one recorded at t + d
         correct=lambda ch, x, sh: delay_signal(ch.time, x, -sh["delay"])),
     TorqueEffect(
         name="reflex", description="Stretch reflex: delayed, half-wave rectified velocity feedback "
         "direction·g·[direction·ẏ(t − δ)]₊ resisting stretch in one direction, optionally through "
         "muscle activation dynamics (critically damped second-order low-pass).", amplitudes=("gain",),
+        units={"gain": "N·m·s/rad", "delay": "s", "direction": "1 (+1: stretch towards positive angles)",
+               "activation_hz": "Hz (none: no activation dynamics)"},
         grid=lambda s: [{"delay": float(d), "direction": sgn, "activation_hz": fa}
                         for d in REFLEX_DELAYS_S for sgn in (1.0, -1.0) for fa in ACTIVATION_HZ],
         grid_reason="loop delays 20–80 ms (spinal stretch reflexes of human limbs) in 5 ms steps; both "
@@ -184,29 +181,16 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         "or a critically damped low-pass whose impulse response peaks at the twitch contraction time "
         "of human muscles, 30, 60, 90 or 120 ms (fast muscles to soleus): corners 1/(2π·T_c)",
         torque=_reflex),
-    TorqueEffect(
-        name="gravity", description="Gravity on an unbalanced segment −mgl·sin(y + θ₀) (θ₀: angle from "
-        "the upright at y = 0).", amplitudes=("mgl",),
-        grid=lambda s: [{"angle_offset": float(a)} for a in np.linspace(-np.pi / 2, np.pi / 2, 7)],
-        grid_reason="θ₀ over ±90° in 30° steps (the sign of mgl is free, so this covers every "
-        "orientation); its part linear in y is a stiffness and is absorbed by the elastic term",
-        torque=lambda ch, sh: gravity(ch.angle, sh["angle_offset"]), smooth=True),
-    LocalTorque(
-        name="sensor_drift", description="Slow drift of the torque sensor's offset (thermal "
-        "strain-gauge drift), a cubic spline in time; faster than the elastic windows, slower than "
-        "the motion.", grid=lambda s: [{"knot_interval": float(2.0 / s.motion_hz)}],
-        grid_reason="knots every 2 motion periods: between the motion (faster torque is not drift) and "
-        "the 4-period elastic windows (a slower drift is a change of the elastic equilibrium, which "
-        "the model already allows); one value, so nothing is selected on held-out data",
-        basis=_drift_basis),
     MechanicsError(
         name="inertia_error", description="The true inertia differs from the nominal one by Δm (a "
         "handle, brace or footplate not accounted for).", amplitudes=("delta_inertia",),
+        units={"delta_inertia": "kg·m²", "fraction": "1 (of the nominal inertia)"},
         grid=lambda s: [{}], grid_reason="no shape parameter", parameter="inertia",
         signal="acceleration"),
     MechanicsError(
         name="damping_error", description="The true damping differs from the nominal one by Δb.",
-        amplitudes=("delta_damping",), grid=lambda s: [{}], grid_reason="no shape parameter",
+        amplitudes=("delta_damping",),
+        units={"delta_damping": "N·m·s/rad", "fraction": "1 (of the nominal damping)"}, grid=lambda s: [{}], grid_reason="no shape parameter",
         parameter="damping", signal="velocity"),
 )}
 

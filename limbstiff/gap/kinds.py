@@ -6,8 +6,6 @@ enters:
 
 * :class:`TorqueEffect` — a torque e = a·φ(y, ẏ, ÿ; shape) on the joint, linear in its
   amplitude a once its shape is fixed; removed by subtracting it from the recorded torque;
-* :class:`LocalTorque` — a torque with free coefficients in time (sensor drift), refitted with
-  the elastic nuisance and judged within a recording;
 * :class:`ChannelCorrection` — a correction of a recorded channel (the torque shifted in time,
   the angle seen through a gear's play), profiled over its one parameter;
 * :class:`MechanicsError` — an error of the nominal m or b; removed by correcting them.
@@ -19,7 +17,7 @@ channels (:meth:`Effect.remove_from`, :func:`remove`). Pure numpy/scipy: no I/O.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable, ClassVar, Mapping
 
 import numpy as np
@@ -105,12 +103,14 @@ class Effect:
         Why the grid spans what it spans.
     amplitudes : tuple of str
         Names (with SI units) of the amplitudes fitted by least squares, one per regressor of
-        the model's amplitude vector (none for a channel correction or a local term).
+        the model's amplitude vector (none for a channel correction).
     kind : {"dynamics", "measurement", "mechanics"}
-    local : bool (class attribute)
-        The term has no parameter that carries over to other data (sensor drift): it is judged
-        by predicting held-out slices within a recording (``crossval``) and refitted with the
-        elastic nuisance.
+    lower_limit : str or None
+        The effect this one becomes at the lower edge of its grid (a Dahl loop narrower than the
+        grid resolves is Coulomb friction): named instead when the two cannot be told apart.
+    units : Mapping of str to str
+        Unit of each parameter (rotational joints; read N for N·m and m for rad on a
+        translational one); dimensionless ones are "1".
     corrects_channel : bool (class attribute)
         The effect corrects a recorded channel (changes the base model's channels).
     """
@@ -121,8 +121,9 @@ class Effect:
     grid_reason: str
     amplitudes: tuple = ()
     kind: str
+    units: Mapping = field(default_factory=dict)
+    lower_limit: str | None = None
 
-    local: ClassVar[bool] = False
     corrects_channel: ClassVar[bool] = False
 
     def evaluate(self, ch: Channels, shape: Mapping) -> Term:
@@ -162,6 +163,10 @@ class Effect:
             out[name] = float(value)
         return out
 
+    def units_of(self, params: Mapping) -> dict:
+        """The unit of each of ``params`` (those of :meth:`params`; nested entries are skipped)."""
+        return {k: self.units.get(k, "1") for k, v in params.items() if not isinstance(v, Mapping)}
+
     def correction(self, ch: Channels, shape: Mapping, coef) -> Correction:
         """Remove the fitted effect from the recorded channels (see :func:`remove`)."""
         return remove(ch, [(self, shape, coef)])
@@ -182,21 +187,6 @@ class TorqueEffect(Effect):
     def evaluate(self, ch: Channels, shape: Mapping) -> Term:
         phi = self.torque(ch, shape)
         return Term(regressors=(phi if self.smooth else filtered_torque(ch, phi))[None])
-
-
-@dataclass(frozen=True, kw_only=True)
-class LocalTorque(Effect):
-    """A torque with free coefficients in time (no parameter carries over to other data).
-
-    ``basis`` : callable (Channels, shape) -> ndarray, shape (p, n), its columns.
-    """
-
-    kind: str = "measurement"
-    basis: Callable
-    local: ClassVar[bool] = True
-
-    def evaluate(self, ch: Channels, shape: Mapping) -> Term:
-        return Term(regressors=self.basis(ch, shape))
 
 
 @dataclass(frozen=True, kw_only=True)

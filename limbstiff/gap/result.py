@@ -41,6 +41,8 @@ class Candidate:
     description : str
     params : Mapping[str, Any]
         Fitted parameters on all the data (shape and amplitudes, SI units).
+    units : Mapping[str, str]
+        The unit of each parameter.
     gap_train : float
         Gap with the effect fitted and scored on all the data (variance not accounted for).
     gap_heldout : float
@@ -59,6 +61,7 @@ class Candidate:
     effect: str
     description: str
     params: Mapping[str, Any]
+    units: Mapping[str, str]
     gap_train: float
     gap_heldout: float
     shrink_heldout: float
@@ -68,6 +71,7 @@ class Candidate:
 
     def to_dict(self) -> dict:
         return jsonable({"effect": self.effect, "description": self.description, "params": dict(self.params),
+                         "units": dict(self.units),
                          "gap_train": self.gap_train, "gap_heldout": self.gap_heldout,
                          "shrink_heldout": self.shrink_heldout,
                          "shrink_heldout_interval": list(self.shrink_interval),

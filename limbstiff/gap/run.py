@@ -9,6 +9,7 @@ trial files and writes ``diagnosis.json`` and ``diagnosis.pdf``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -18,12 +19,15 @@ import numpy as np
 
 from ..analysis import analyze, range_of_motion
 from ..errors import LimbstiffError, TrialError
+from ..estimate import estimators
+from ..estimate.observer import informed_samples
+from ..filtered import filter_trial
 from ..protocol import Protocol
 from ..trial import Trial
 from . import crossval, nominal, residual, selection
 from .channels import Channels, channels_from
 from .effects import EFFECTS
-from .kinds import remove
+from .kinds import MechanicsError, remove
 from .result import Candidate, Diagnosis
 
 #: Held-out blocks of a single trial.
@@ -45,12 +49,32 @@ def _corrected_trial(trial: Trial, ch: Channels, corr) -> Trial:
     return dataclasses.replace(trial, **changes) if changes else trial
 
 
-def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_trial, seed: int) -> dict:
+def median_stiffness(trial: Trial, result, ch: Channels, protocol: Protocol, inertia: float | None = None,
+                     damping: float | None = None) -> float:
+    """Median Kalman stiffness of ``trial`` over ``result``'s informed samples, N·m/rad.
+
+    The trial is filtered at the analysis's corner and the Kalman estimator run with m and b
+    fixed (``inertia``, ``damping``; default those of ``ch``): the stiffness the analysis would
+    give with them, without its choice of corner, coupling test and checks, so that the nominal
+    and a corrected trial differ only by the correction.
+    """
+    filtered = filter_trial(trial, protocol, corner_hz=ch.cutoff_hz)
+    if ch.mechanics == "none":
+        est = estimators.kalman(filtered)
+    else:
+        est = estimators.kalman(filtered, inertia=ch.inertia if inertia is None else inertia,
+                                damping=ch.damping if damping is None else damping)
+    return float(np.median(est.stiffness[informed_samples(result.observable)]))
+
+
+def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_trial, *, nominal_stiffness,
+                     mechanics=None) -> dict:
     """Median stiffness of each trial with the fitted effects removed, against the nominal one.
 
-    The trial is re-analysed with the effect's torque taken off the recorded torque (or its
-    recorded channel corrected, or m and b corrected), m and b fixed to the nominal values (so
-    that only the effect changes), the same low-pass corner and seed.
+    The trial's recorded channels are corrected (the effect's torque taken off the recorded
+    torque, or its recorded channel corrected, or m and b corrected), m and b fixed — to the
+    nominal values, or to those fitted with the effects when they are identified (``mechanics``:
+    per trial (m, b) or None) — and the stiffness estimated again (:func:`median_stiffness`).
 
     Returns
     -------
@@ -59,24 +83,44 @@ def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_t
         (the bias the effect puts on the nominal estimate) and ``median_relative``.
     """
     per = {}
-    for trial, res, ch, fitted in zip(trials, results, channels, fitted_per_trial):
-        corr = remove(ch, fitted)
+    mechanics = mechanics or [None] * len(trials)
+    for trial, res, ch, fitted, mech, nom in zip(trials, results, channels, fitted_per_trial, mechanics,
+                                                 nominal_stiffness):
         try:
-            proto = protocol.override(bandwidth_hz=ch.cutoff_hz)
-            if ch.mechanics != "none":
-                if not (corr.inertia > 0 and corr.damping > 0):
-                    raise LimbstiffError(f"the corrected inertia ({corr.inertia:.3g}) or damping ({corr.damping:.3g}) "
-                                         "is not positive")
-                proto = proto.override(inertia=corr.inertia, damping=corr.damping)
-            again = analyze(_corrected_trial(trial, ch, corr), proto, seed=seed)
+            if any(not np.all(np.isfinite(np.atleast_1d(coef))) for _, _, coef in fitted):
+                raise LimbstiffError("the effect's amplitude could not be fitted")
+            corr = remove(ch, fitted)
+            if mech is not None:
+                corr = dataclasses.replace(corr, inertia=corr.inertia - ch.inertia + mech[0],
+                                           damping=corr.damping - ch.damping + mech[1])
+            if ch.mechanics != "none" and not (corr.inertia > 0 and corr.damping > 0):
+                raise LimbstiffError(f"the corrected inertia ({corr.inertia:.3g}) or damping ({corr.damping:.3g}) "
+                                     "is not positive")
+            new = median_stiffness(_corrected_trial(trial, ch, corr), res, ch, protocol, corr.inertia, corr.damping)
         except LimbstiffError as exc:
-            per[trial.name] = {"nominal": _median_stiffness(res), "corrected": None, "relative": None,
-                               "error": str(exc)}
+            per[trial.name] = {"nominal": nom, "corrected": None, "relative": None, "error": str(exc)}
             continue
-        nom, new = _median_stiffness(res), _median_stiffness(again)
         per[trial.name] = {"nominal": nom, "corrected": new, "relative": nom / new - 1.0 if new else None}
     rel = [v["relative"] for v in per.values() if v["relative"] is not None]
     return {"per_trial": per, "median_relative": float(np.median(rel)) if rel else None}
+
+
+def candidate_library(channels, effects: dict | None = None) -> tuple[dict, list[str]]:
+    """The effects to try on these trials, and notes on those left out.
+
+    When m and b are identified they are fitted together with every effect, so an error of
+    either is not a separate effect: ``inertia_error`` and ``damping_error`` are left out.
+    """
+    effects = dict(EFFECTS if effects is None else effects)
+    notes = []
+    if any(c.identified for c in channels):
+        dropped = [n for n, e in effects.items() if isinstance(e, MechanicsError)]
+        effects = {n: e for n, e in effects.items() if n not in dropped}
+        if dropped:
+            notes.append("inertia and damping were identified from the trial(s) and are fitted together with every "
+                         f"effect, so {' and '.join(dropped)} are not separate effects and were not tried; give the "
+                         "values the set-up assumes (protocol [mechanics], --inertia/--damping) to test them")
+    return effects, notes
 
 
 def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed: int = 0,
@@ -87,13 +131,14 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     Parameters
     ----------
     trials : sequence of Trial
-        Several trials of one set-up are scored leave-one-trial-out; one trial on ``blocks``
-        contiguous held-out blocks.
+        Trials of one set-up: the effects' amplitudes are shared, each trial is cut into
+        ``blocks`` contiguous held-out blocks.
     protocol : Protocol, optional
     seed : int
         Seed of the analysis and of every random draw of the tests and intervals.
     inertia, damping : float, optional
-        The nominal m (kg·m²) and b (N·m·s/rad) a lab assumes; otherwise those identified.
+        The nominal m (kg·m²) and b (N·m·s/rad) a lab assumes; otherwise they are identified
+        (and fitted again together with each effect).
     blocks : int
     effects : dict of str to Effect, optional
         The candidate library (default :data:`effects.EFFECTS`).
@@ -110,10 +155,10 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
         A trial that cannot be analysed or is too short to diagnose.
     """
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping)
-    effects = dict(EFFECTS if effects is None else effects)
     trials = list(trials)
     results = list(results) if results is not None else [analyze(t, protocol, seed=seed) for t in trials]
     channels = [channels_from(t, r) for t, r in zip(trials, results)]
+    effects, library_notes = candidate_library(channels, effects)
     try:
         problem = crossval.build_problem(channels, blocks=blocks)
     except ValueError as exc:
@@ -123,20 +168,16 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     candidates = sorted((_candidate(run, name, scored, effects[name], rng) for name, scored in run.sel.first.items()),
                         key=lambda c: -c.shrink_heldout)
     after = _after(run, rng)
-    where_out, series = residual.series(channels, problem.layouts, run.sel.chosen, run.sel.final.base_coef)
+    where_out, series = residual.series(problem, run.sel.nominal, run.sel.final if run.chosen else None)
     trials_info = _trials_info(run)
     floor = float(np.average([t["noise_floor"] for t in trials_info],
                              weights=[np.sum(problem.deviation[problem.trial == i] ** 2) for i in range(len(trials))]))
-    notes = _notes(channels, problem, run.chosen)
-    notes.insert(0, "gap: the nominal model fits nothing of its own but the elastic terms, which are refitted on "
-                    "whatever is scored, so its held-out gap equals its in-sample gap"
-                 + ("; its m and b were identified from these same data" if any(c.mechanics == "identified"
-                                                                              for c in channels) else ""))
-    return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC, gap_train=float(run.sel.nominal.rss_train) / run.den,
-                     gap_heldout=run.nominal_heldout / run.den, noise_floor=floor, heldout=_heldout(problem),
-                     where=where_out, candidates=tuple(candidates), diagnosis=tuple(run.chosen),
-                     steps=tuple(_steps(run)), ambiguities=tuple(run.sel.ambiguities), after=after,
-                     settings=_settings(protocol.ci_level), notes=tuple(notes),
+    notes = library_notes + _notes(channels)
+    return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC,
+                     gap_train=float(run.sel.nominal.rss_train) / run.den, gap_heldout=run.nominal_heldout / run.den,
+                     noise_floor=floor, heldout=_heldout(problem), where=where_out, candidates=tuple(candidates),
+                     diagnosis=tuple(run.chosen), steps=tuple(_steps(run)), ambiguities=tuple(run.sel.ambiguities),
+                     after=after, settings=_settings(protocol.ci_level), notes=tuple(notes),
                      warnings=tuple(w for r in results for w in r.warnings), seed=seed, series=series)
 
 
@@ -155,12 +196,12 @@ class _Run:
 
     @property
     def den(self) -> float:
-        """Σ (f − f̄)² over the rows, the gap's denominator (N·m²)."""
+        """Σ (f − f̄)² over the scored steps, the gap's denominator (N·m²)."""
         return float(np.sum(self.problem.deviation ** 2))
 
     @property
     def nominal_heldout(self) -> float:
-        """The nominal model's held-out RSS (N·m²)."""
+        """The nominal model's held-out sum of squared prediction errors (N·m²)."""
         return float(self.sel.nominal.unit_rss.sum())
 
     @property
@@ -174,10 +215,20 @@ class _Run:
         return SimpleNamespace(inertia=float(np.median([c.inertia for c in self.channels])),
                                damping=float(np.median([c.damping for c in self.channels])))
 
-    def stiffness_change(self, fitted: list) -> dict:
+    @functools.cached_property
+    def nominal_stiffness(self) -> list[float]:
+        """Each trial's :func:`median_stiffness` with the nominal m and b."""
+        return [median_stiffness(t, r, c, self.protocol) for t, r, c in zip(self.trials, self.results, self.channels)]
+
+    def stiffness_change(self, fitted: list, mechanics=None) -> dict:
         """:func:`stiffness_change` of the same fitted effects removed from every trial."""
-        return stiffness_change(self.trials, self.results, self.channels, self.protocol,
-                                [fitted] * len(self.trials), self.seed)
+        return stiffness_change(self.trials, self.results, self.channels, self.protocol, [fitted] * len(self.trials),
+                                nominal_stiffness=self.nominal_stiffness, mechanics=mechanics)
+
+
+def _walks(ev) -> list[float]:
+    """The stiffness walk Q_σ of a model, per trial ((N·m/rad)²/s)."""
+    return [float(n.stiffness_walk) for n in ev.noise]
 
 
 def _candidate(run: _Run, name: str, scored, eff, rng: np.random.Generator) -> Candidate:
@@ -187,54 +238,43 @@ def _candidate(run: _Run, name: str, scored, eff, rng: np.random.Generator) -> C
     """
     ev = scored.evaluation
     params = eff.params(ev.shape, ev.coef, run.mech)
-    if eff.local:
-        params["rms"] = float(np.sqrt(np.mean(ev.fitted ** 2)))
-    evidence = _evidence(run, name, scored, eff)
-    bias = run.stiffness_change([(eff, ev.shape, ev.coef)])
+    if ev.mechanics is not None:
+        params["mechanics_fitted_with_it"] = {ch.name: {"inertia": m[0], "damping": m[1]}
+                                              for ch, m in zip(run.channels, ev.mechanics)}
+    bias = run.stiffness_change([(eff, ev.shape, ev.coef)], ev.mechanics)
     return Candidate(
-        effect=name, description=eff.description, params=params, gap_train=ev.rss_train / run.den,
-        gap_heldout=float(ev.unit_rss.sum()) / run.den, shrink_heldout=scored.shrink,
+        effect=name, description=eff.description, params=params, units=eff.units_of(params),
+        gap_train=ev.rss_train / run.den, gap_heldout=float(ev.unit_rss.sum()) / run.den,
+        shrink_heldout=scored.shrink,
         shrink_interval=selection.shrink_interval(scored.reference, ev.unit_rss, rng, level=run.protocol.ci_level),
-        evidence=evidence, stiffness_bias=bias)
+        evidence=_evidence(run, name, scored, eff), stiffness_bias=bias)
 
 
 def _evidence(run: _Run, name: str, scored, eff) -> dict:
-    """How a candidate was judged: test, scheme, step, shapes per fold, grid, notes."""
+    """How a candidate was judged: test, step, shapes per fold, noise levels, grid."""
     ev, chosen = scored.evaluation, run.chosen
     later = [s[name] for s in run.sel.steps[1:] if name in s]
     shaped = eff.grid(selection.problem_scales(run.problem)) != [{}]
-    evidence = {"absorbed": ev.absorbed, "identifiable_share": ev.share,
-                "p_value": scored.p_value, "p_adjusted": scored.p_adjusted, "significant": scored.significant,
-                "relevant": scored.relevant, "units": int(len(scored.gains)),
-                "units_improved": float(np.mean(scored.gains > 0)), "scheme": ev.scheme,
-                "fold_params": [eff.params(s, np.zeros(len(ev.coef)), None) for s in ev.fold_shapes
-                                if s is not None] if shaped else None,
-                "chosen": name in chosen, "step": chosen.index(name) + 1 if name in chosen else None,
-                "shrink_after_chosen": later[-1].shrink if later and name not in chosen else None,
-                "grid": eff.grid_reason}
-    if ev.absorbed:
-        evidence["note"] = (f"absorbed: at most {100 * (ev.share or 0):.2g} % of its torque lies outside what the "
-                            "elastic term (a cubic spring per window) takes up, so it cannot be told from a "
-                            "stiffness in these data and is not fitted")
-    if ev.scheme == "interleaved":
-        evidence["note"] = ("no parameter carries over to other data: scored by predicting every fifth "
-                            "motion period from the rest of the same recording, the nominal model alike")
-    return evidence
+    return {"identifiable_share": ev.share, "p_value": scored.p_value, "p_adjusted": scored.p_adjusted,
+            "significant": scored.significant, "relevant": scored.relevant,
+            "share_of_nominal_gap": scored.share_of_nominal, "units": int(len(scored.gains)),
+            "units_improved": float(np.mean(scored.gains > 0)),
+            "fold_params": [eff.params(s, np.zeros(len(ev.coef)), None) for s in ev.fold_shapes
+                            if s is not None] if shaped else None,
+            "stiffness_walk": {"nominal": _walks(run.sel.nominal), "with_effect": _walks(ev),
+                               "unit": "(N·m/rad)²/s"},
+            "chosen": name in chosen, "step": chosen.index(name) + 1 if name in chosen else None,
+            "shrink_after_chosen": later[-1].shrink if later and name not in chosen else None,
+            "grid": eff.grid_reason}
 
 
 def _chosen_fits(sel: selection.Selection) -> list:
-    """The chosen effects as (Effect, shape, amplitudes) of the model with all of them.
-
-    The final model's amplitude vector holds each effect's amplitudes in the order chosen; a
-    local effect is refitted as nuisance in that model, so its fit when it was chosen is taken.
-    """
+    """The chosen effects as (Effect, shape, amplitudes) of the model with all of them: the final
+    model's amplitude vector holds each effect's amplitudes in the order chosen."""
     fitted, k = [], 0
-    for step, (eff, shape) in enumerate(sel.chosen):
-        if eff.local:
-            coef = sel.steps[step][eff.name].evaluation.coef
-        else:
-            coef = sel.final.base_coef[k:k + len(eff.amplitudes)]
-            k += len(eff.amplitudes)
+    for eff, shape in sel.chosen:
+        coef = sel.final.base_coef[k:k + len(eff.amplitudes)]
+        k += len(eff.amplitudes)
         fitted.append((eff, shape, coef))
     return fitted
 
@@ -243,16 +283,18 @@ def _after(run: _Run, rng: np.random.Generator) -> dict:
     """The model with every chosen effect: its gap, shrinkage, parameters and stiffness bias."""
     final, nominal_held, den = run.sel.final, run.nominal_heldout, run.den
     fitted = _chosen_fits(run.sel)
+    params = {eff.name: eff.params(shape, coef, run.mech) for eff, shape, coef in fitted}
     after = {"effects": run.chosen, "gap_train": final.rss_train / den,
              "gap_heldout": float(final.unit_rss.sum()) / den,
              "shrink_heldout": 1.0 - float(final.unit_rss.sum()) / nominal_held if nominal_held > 0 else None,
              "shrink_heldout_interval": list(selection.shrink_interval(run.sel.nominal.unit_rss, final.unit_rss, rng,
                                                                     level=run.protocol.ci_level)),
-             "params": {eff.name: eff.params(shape, coef, run.mech) for eff, shape, coef in fitted}}
-    if any(e.local for e, _ in run.sel.chosen):
-        after["note"] = ("sensor drift, once chosen, is refitted on every scored block like the elastic terms; "
-                         "the held-out gap above scores the other effects only")
-    after["stiffness_bias"] = run.stiffness_change(fitted) if fitted else None
+             "params": params,
+             "units": {eff.name: eff.units_of(params[eff.name]) for eff, _, _ in fitted},
+             "stiffness_walk": _walks(final)}
+    if final.mechanics is not None:
+        after["mechanics"] = {ch.name: {"inertia": m[0], "damping": m[1]} for ch, m in zip(run.channels, final.mechanics)}
+    after["stiffness_bias"] = run.stiffness_change(fitted, final.mechanics) if fitted else None
     return after
 
 
@@ -260,16 +302,16 @@ def _trials_info(run: _Run) -> list[dict]:
     """One summary per trial: source, sampling, nominal model, layout, stiffness, noise floor, gap."""
     problem, out = run.problem, []
     for i, (t, r, ch, lay) in enumerate(zip(run.trials, run.results, run.channels, problem.layouts)):
-        sel_i = problem.trial == i
+        sl = problem.trial_rows(i)
         out.append({"trial": t.name, "source": t.source, "source_sha256": t.source_sha256,
                     "fs_hz": t.fs, "duration_s": t.duration, "variant": r.variant,
                     "inertia": ch.inertia, "damping": ch.damping, "mechanics": ch.mechanics,
-                    "cutoff_hz": ch.cutoff_hz, "motion_hz": ch.motion_hz, "rows": int(len(lay.rows)),
-                    "decimation": lay.decimation, "windows": int(lay.window.max()) + 1,
-                    "stiffness_median": _median_stiffness(r),
+                    "cutoff_hz": ch.cutoff_hz, "motion_hz": ch.motion_hz, "steps": int(lay.scored.sum()),
+                    "step_s": lay.step_s, "units": lay.n_units,
+                    "stiffness_median": _median_stiffness(r), "noise_levels": run.sel.nominal.noise[i].to_dict(),
                     "noise_floor": nominal.noise_floor(ch, lay),
-                    "gap_train": float(np.sum(run.sel.nominal.residual[sel_i] ** 2)
-                                       / np.sum(problem.deviation[sel_i] ** 2))})
+                    "gap_train": float(np.sum(run.sel.nominal.residual[sl] ** 2)
+                                       / np.sum(problem.deviation[sl] ** 2))})
     return out
 
 
@@ -284,42 +326,37 @@ def _steps(run: _Run) -> list[dict]:
 
 
 def _heldout(problem: crossval.Problem) -> dict:
-    """The held-out scheme: folds, guard (s), units, unit and window lengths (s)."""
-    return {"scheme": "leave-one-trial-out" if problem.scheme == "trials" else f"{problem.n_folds} contiguous blocks",
-            "folds": problem.n_folds, "guard_s": problem.guard_s if problem.scheme == "blocks" else 0.0,
-            "units": problem.n_units, "unit_s": [lay.unit_s for lay in problem.layouts],
-            "window_s": [lay.window_s for lay in problem.layouts]}
+    """The held-out scheme: folds, guard (s), units, unit length and step (s)."""
+    return {"scheme": f"{problem.n_folds} contiguous blocks per trial", "folds": problem.n_folds,
+            "guard_s": problem.guard_s, "units": problem.n_units,
+            "unit_s": [lay.unit_s for lay in problem.layouts], "step_s": [lay.step_s for lay in problem.layouts]}
 
 
 def _settings(level: float) -> dict:
     """The settings of the selection, the nominal model and the test (confidence ``level``)."""
     return {"alpha": selection.ALPHA, "relevance": selection.RELEVANCE, "permutations": selection.PERMUTATIONS,
             "bootstrap": selection.BOOTSTRAP, "collinear": selection.COLLINEAR, "ci_level": level,
-            "window_periods": nominal.WINDOW_PERIODS, "units_per_window": nominal.UNITS_PER_WINDOW,
-            "nuisance": list(nominal.NUISANCE), "test": "one-sided sign-flip test of the summed held-out gains "
-            "over units, Holm-corrected over the candidates of each step",
+            "model": "the analysis's Kalman model (stiffness a random walk) with the effects as measurement terms; "
+                     "noise levels refitted per model by maximum marginal likelihood",
+            "settling_periods": nominal.SETTLING_PERIODS,
+            "test": "one-sided sign-flip test of the summed held-out gains over units, Holm-corrected over the "
+                    "candidates of each step",
             "relevance_reason": "an effect must remove at least this share of the nominal model's held-out "
                                 "gap, at the step it is added (see limbstiff.gap.selection.RELEVANCE)"}
 
 
-def _notes(channels, problem, chosen) -> list[str]:
-    notes = []
-    if any(c.mechanics == "identified" for c in channels):
-        notes.append("inertia and damping were identified from the trial(s): inertia_error and damping_error are "
-                     "relative to the identified values, which absorb any such error; give the values the set-up "
-                     "assumes (protocol [mechanics], --inertia/--damping) to test them")
+def _notes(channels) -> list[str]:
     rom = max(range_of_motion(c.angle) for c in channels)
     half = 0.5 * rom
     curv = abs(1.0 - np.sin(half) / half) if half > 0 else 0.0
-    notes.append(f"gravity: over the range of motion (±{half:.3g} rad) sin(y) departs from a straight line by "
-                 f"{100 * curv:.2g} % at most; a torque that depends on the angle alone is a stiffness (the paper's "
-                 "generalized stiffness includes −mgl·cos θ) and the elastic term absorbs it, so gravity cannot be told "
-                 "from stiffness in these data; separate them by repeating the trial at another operating angle "
-                 "(gravity changes the stiffness by mgl·cos θ) or with the segment's weight supported")
-    notes.append(f"sensor drift slower than the elastic windows ({problem.layouts[0].window_s:.2g} s) is "
-                 "indistinguishable from a slow change of the elastic equilibrium (tonic torque), which the model "
-                 "allows; separate them with zero-load recordings before and after the trial")
-    return notes
+    return [f"gravity: over the range of motion (±{half:.3g} rad) sin(y) departs from a straight line by "
+            f"{100 * curv:.2g} % at most; a torque that depends on the angle alone is a stiffness (the paper's "
+            "generalized stiffness includes −mgl·cos θ) and the time-varying stiffness takes it up, so gravity can "
+            "hardly be told from stiffness in these data; separate them by repeating the trial at another operating "
+            "angle (gravity changes the stiffness by mgl·cos θ) or with the segment's weight supported",
+            "sensor drift: a slow drift of the torque offset is a walk of the elastic torque, which the model holds "
+            "(its torque walk Q_s), so it is not a separate effect; separate them with zero-load recordings before "
+            "and after the trial"]
 
 
 @dataclass(frozen=True)

@@ -178,14 +178,9 @@ class Selection:
     ambiguities: list = field(default_factory=list)
 
 
-def _score(problem, base, base_eval, effect: Effect, rng, bases, nominal_total: float) -> Scored:
-    shapes = effect.grid(problem_scales(problem))
-    if effect.local:
-        ev = crossval.evaluate_local(problem, base, effect, shapes=shapes, bases=bases)
-        ref = ev.base_unit_rss
-    else:
-        ev = crossval.evaluate(problem, base, effect, shapes=shapes, bases=bases)
-        ref = base_eval.unit_rss
+def _score(problem, base, base_eval, effect: Effect, rng, nominal_total: float) -> Scored:
+    ev = crossval.evaluate(problem, base, effect, shapes=effect.grid(problem_scales(problem)))
+    ref = base_eval.unit_rss
     gains = ref - ev.unit_rss
     total = float(ref.sum())
     shrink = float(gains.sum() / total) if total > 0 else 0.0
@@ -221,9 +216,8 @@ def select(problem: crossval.Problem, effects: dict, *, rng: np.random.Generator
     remaining = dict(effects)
     steps, first = [], None
     while remaining:
-        bases = crossval._base(problem, base)
         total = float(nominal_eval.unit_rss.sum())
-        scored = {name: _score(problem, base, base_eval, eff, rng, bases, total) for name, eff in remaining.items()}
+        scored = {name: _score(problem, base, base_eval, eff, rng, total) for name, eff in remaining.items()}
         for name, p in holm({n: s.p_value for n, s in scored.items()}).items():
             scored[name].p_adjusted = p
         steps.append(scored)
@@ -231,12 +225,27 @@ def select(problem: crossval.Problem, effects: dict, *, rng: np.random.Generator
         eligible = [n for n, s in scored.items() if s.significant and s.relevant]
         if not eligible:
             break
-        best = max(eligible, key=lambda n: scored[n].shrink)
+        best = _at_limit(max(eligible, key=lambda n: scored[n].shrink), scored, eligible, effects, problem, rng)
         base = base + [(remaining.pop(best), scored[best].evaluation.shape)]
         base_eval = crossval.evaluate(problem, base)
     sel = Selection(nominal=nominal_eval, first=first or {}, steps=steps, chosen=base, final=base_eval)
     sel.ambiguities = ambiguities(sel, rng)
     return sel
+
+
+def _at_limit(best: str, scored: dict, eligible: list, effects: dict, problem, rng) -> str:
+    """The effect ``best`` becomes at the lower edge of its grid (:attr:`Effect.lower_limit`),
+    when it was fitted there and the two are not told apart (their unit gains do not differ
+    significantly); otherwise ``best``. A Dahl loop narrower than the grid resolves is Coulomb
+    friction: a LuGre friction's presliding bristles fit as such a loop."""
+    limit = effects[best].lower_limit
+    if limit is None or limit not in eligible:
+        return best
+    shape = scored[best].evaluation.shape
+    grid = effects[best].grid(problem_scales(problem))
+    at_edge = all(shape.get(k) == min(g[k] for g in grid) for k in shape)
+    p_diff = sign_flip_pvalue(scored[best].gains - scored[limit].gains, rng, alternative="two-sided")
+    return limit if at_edge and p_diff > ALPHA else best
 
 
 def ambiguities(sel: Selection, rng: np.random.Generator) -> list[dict]:
@@ -252,13 +261,12 @@ def ambiguities(sel: Selection, rng: np.random.Generator) -> list[dict]:
             fa, fb = a.evaluation.fitted, b.evaluation.fitted
             denom = np.sqrt(float(fa @ fa) * float(fb @ fb))
             corr = float(abs(fa @ fb) / denom) if denom > 0 else 0.0
-            same_scheme = a.evaluation.scheme == b.evaluation.scheme
-            p_diff = sign_flip_pvalue(a.gains - b.gains, rng, alternative="two-sided") if same_scheme else None
-            if corr >= COLLINEAR or (p_diff is not None and p_diff > ALPHA):
+            p_diff = sign_flip_pvalue(a.gains - b.gains, rng, alternative="two-sided")
+            if corr >= COLLINEAR or p_diff > ALPHA:
                 reason = []
                 if corr >= COLLINEAR:
                     reason.append(f"their fitted torques are collinear (|r| = {corr:.2f})")
-                if p_diff is not None and p_diff > ALPHA:
+                if p_diff > ALPHA:
                     reason.append(f"their held-out gains do not differ significantly (p = {p_diff:.2g}; "
                                   f"shrink {a.shrink:.1%} against {b.shrink:.1%})")
                 out.append({"effects": [effect.name, name], "correlation": corr, "p_difference": p_diff,

@@ -36,18 +36,29 @@ def _lines(fig, y, items, *, size=9, indent=0.06, width=105, step=0.019):
     return y
 
 
+def _param_text(name: str, value, unit: str) -> str:
+    """One parameter with its unit; delays in ms, dimensionless ones bare."""
+    if value is None:
+        return f"{name} = none"
+    if unit == "s":
+        return f"{name} = {1e3 * value:.3g} ms"
+    unit = unit.split(" (")[0]
+    return f"{name} = {value:.4g}" + ("" if unit in ("1", "") else f" {unit}")
+
+
 def _summary_page(fig, d):
     fig.text(0.06, 0.955, "Sim-to-real gap: diagnosis", fontsize=15, weight="bold")
     names = ", ".join(t["trial"] for t in d.trials)
     y = _lines(fig, 0.92, [f"Trials: {names}", f"Held out: {d.heldout['scheme']} "
-                           f"({d.heldout['units']} scoring units of about one motion period)"])
+                           f"({d.heldout['units']} scoring units of at most one motion period)"])
     y -= 0.01
-    fig.text(0.06, y, "Nominal model (m·ÿ + b·ẏ + local elastic torque)", fontsize=11, weight="bold")
+    fig.text(0.06, y, "Nominal model: the analysis's Kalman model (m·ÿ + b·ẏ + elastic torque with a walking "
+             "stiffness)", fontsize=10, weight="bold")
     y -= 0.024
-    items = [f"{t['trial']}: m = {t['inertia']:.4g}, b = {t['damping']:.4g} ({t['mechanics']}), "
-             f"median stiffness {t['stiffness_median']:.4g}, gap {_pct(t['gap_train'], 2)} "
+    items = [f"{t['trial']}: m = {t['inertia']:.4g} kg·m², b = {t['damping']:.4g} N·m·s/rad ({t['mechanics']}), "
+             f"median stiffness {t['stiffness_median']:.4g} N·m/rad, gap {_pct(t['gap_train'], 2)} "
              f"(noise floor ≥ {_pct(t['noise_floor'], 2)})" for t in d.trials[:12]]
-    items.append(f"Gap (variance not accounted for): {_pct(d.gap_train, 2)} in-sample, "
+    items.append(f"Gap (one-step prediction error over the torque's variance): {_pct(d.gap_train, 2)} in-sample, "
                  f"{_pct(d.gap_heldout, 2)} held out; white sensor noise alone: ≥ {_pct(d.noise_floor, 2)}")
     y = _lines(fig, y, items)
     y -= 0.01
@@ -57,8 +68,9 @@ def _summary_page(fig, d):
         a = d.after
         bias = (a.get("stiffness_bias") or {}).get("median_relative")
         lo, hi = a["shrink_heldout_interval"]
-        items = [f"{i + 1}. {name}: " + ", ".join(f"{k} = {v:.4g}" for k, v in a["params"][name].items()
-                                                   if isinstance(v, (int, float)))
+        items = [f"{i + 1}. {name}: " + ", ".join(_param_text(k, v, a["units"][name].get(k, "1"))
+                                                   for k, v in a["params"][name].items()
+                                                   if v is None or isinstance(v, (int, float)))
                  for i, name in enumerate(d.diagnosis)]
         items.append(f"With these effects the held-out gap falls from {_pct(d.gap_heldout, 2)} to "
                      f"{_pct(a['gap_heldout'], 2)}: shrink {_pct(a['shrink_heldout'])} "
@@ -94,19 +106,21 @@ def _effects_page(fig, d):
         ax.plot([100 * lo, 100 * hi], [yy, yy], color="k", lw=1)
     ax.set_yticks(ypos, [c.effect for c in cands])
     ax.axvline(0, color="k", lw=0.6)
-    ax.set_xlabel("held-out gap removed against the nominal model [%] (bar: estimate, line: interval)")
+    ax.set_xlabel("held-out gap removed against the nominal model [%] (bar: estimate, line: "
+                  f"{100 * d.settings['ci_level']:.0f} % bootstrap interval)")
     ax.set_title("Candidate effects (red: chosen, orange: significant and relevant, grey: not)", fontsize=9)
-    rows = [["effect", "gap train", "gap held out", "p (Holm)", "stiffness bias"]]
+    rows = [["effect", "fitted parameters", "gap held out", "p (Holm)", "stiffness bias"]]
     for c in cands:
         bias = (c.stiffness_bias or {}).get("median_relative")
-        rows.append([c.effect, _pct(c.gap_train, 2), _pct(c.gap_heldout, 2),
-                     f"{c.evidence.get('p_adjusted', float('nan')):.3g}",
+        params = ", ".join(_param_text(k, v, c.units.get(k, "1")) for k, v in c.params.items()
+                           if k in c.units and (v is None or isinstance(v, (int, float))))
+        rows.append([c.effect, params, _pct(c.gap_heldout, 2), f"{c.evidence.get('p_adjusted', float('nan')):.3g}",
                      "—" if bias is None else f"{100 * bias:+.1f} %"])
     tax = fig.add_axes([0.06, 0.08, 0.88, 0.40])
     tax.axis("off")
-    table = tax.table(cellText=rows, loc="upper center", cellLoc="left")
+    table = tax.table(cellText=rows, loc="upper center", cellLoc="left", colWidths=[0.17, 0.5, 0.11, 0.09, 0.13])
     table.auto_set_font_size(False)
-    table.set_fontsize(8)
+    table.set_fontsize(6.5)
     table.scale(1, 1.25)
     fig.text(0.06, 0.965, f"Ranked effects; nominal held-out gap {_pct(d.gap_heldout, 2)}", fontsize=12,
              weight="bold")
@@ -114,17 +128,26 @@ def _effects_page(fig, d):
 
 
 def _regime_axes(ax, w, w_after, key, title):
+    """The gap per bin of one regime, nominal and after, with the bins' intervals (χ², n_eff)."""
     bins = w["regime"][key]
     x = np.arange(len(bins))
     for off, src, color, label in ((-0.2, bins, "C0", "nominal"),
                                    (0.2, None if w_after is None else w_after["regime"][key], "C3", "after")):
         if src is None:
             continue
-        vals = [100 * (b["gap"] or 0.0) for b in src]
+        vals = np.array([100 * (b["gap"] or 0.0) for b in src])
         ax.bar(x + off, vals, width=0.4, color=color, alpha=0.8, label=label)
+        ratio = np.array([b["ratio"] or 0.0 for b in src])
+        lo_hi = np.array([b["interval"] or [r, r] for b, r in zip(src, ratio)])
+        scale = np.divide(vals, ratio, out=np.zeros_like(vals), where=ratio > 0)
+        ax.errorbar(x + off, vals, yerr=np.abs(np.vstack([ratio - lo_hi[:, 0], lo_hi[:, 1] - ratio]) * scale),
+                    fmt="none", ecolor="k", elinewidth=0.6, capsize=1.5)
+    empty = [b["bin"][:18] for b in bins if not b["n"]]
+    if empty:
+        ax.text(0.5, 0.9, "no steps in: " + ", ".join(empty), transform=ax.transAxes, ha="center", fontsize=6)
     ax.set_xticks(x, [b["bin"][:18] for b in bins], rotation=30, ha="right", fontsize=6)
-    ax.set_title(title, fontsize=8)
-    ax.set_ylabel("gap [%]", fontsize=7)
+    ax.set_title(title + " (bars: 95 % intervals)", fontsize=8)
+    ax.set_ylabel("gap [% of torque variance]", fontsize=7)
 
 
 def _map_page(fig, d, name, s):
@@ -136,11 +159,14 @@ def _map_page(fig, d, name, s):
     ax.stairs(100 * np.asarray(tw["gap"]), edges, color="C0", label="nominal")
     if wa is not None:
         ax.stairs(100 * np.asarray(wa["time"]["gap"]), edges, color="C3", label="after")
-    for cp in tw["change_points_s"]:
-        ax.axvline(cp, color="k", ls=":", lw=0.8)
-    ax.set_title("gap per window (dotted: change points)", fontsize=8)
+    for j, cp in enumerate(tw["change_points_s"]):
+        ax.axvline(cp, color="k", ls="--", lw=1.4, label="change point" if j == 0 else None)
+    if not tw["change_points_s"]:
+        ax.text(0.5, 0.9, "no change point: the gap is steady in time", transform=ax.transAxes, ha="center",
+                fontsize=6)
+    ax.set_title(f"gap per window of {tw['window_s']:.2g} s (dashed: change points)", fontsize=8)
     ax.set_xlabel("time [s]", fontsize=7)
-    ax.set_ylabel("gap [%]", fontsize=7)
+    ax.set_ylabel("gap [% of torque variance]", fontsize=7)
     ax.legend(fontsize=6)
     ax = axes[0, 1]
     fr = w["frequency"]
@@ -148,7 +174,8 @@ def _map_page(fig, d, name, s):
     ax.semilogy(fr["freq_hz"], fr["residual_psd"], color="C0", lw=0.8, label="residual")
     if wa is not None:
         ax.semilogy(wa["frequency"]["freq_hz"], wa["frequency"]["residual_psd"], color="C3", lw=0.8, label="after")
-    ax.set_title("spectra [(N·m)²/Hz]", fontsize=8)
+    ax.set_title("spectra of torque and one-step prediction error", fontsize=8)
+    ax.set_ylabel("PSD [(N·m)²/Hz]", fontsize=7)
     ax.set_xlabel("frequency [Hz]", fontsize=7)
     ax.legend(fontsize=6)
     ax = axes[1, 0]
@@ -158,10 +185,11 @@ def _map_page(fig, d, name, s):
     ax.axhline(fr["bound"], color="k", ls="--", lw=0.8)
     ax.set_title(f"coherence of the residual with the angle (dashed: {100 * fr['level']:.0f} % bound)", fontsize=8)
     ax.set_xlabel("frequency [Hz]", fontsize=7)
+    ax.set_ylabel("coherence [1]", fontsize=7)
     ax.set_ylim(0, 1)
     for ax, (key, title) in zip([axes[1, 1], axes[2, 0], axes[2, 1], axes[3, 0], axes[3, 1]],
-                                (("speed", "by speed"), ("reversal", "near reversals"), ("angle", "by angle [rad]"),
-                                 ("torque", "by torque [N·m]"), ("stiffness", "by estimated stiffness"))):
+                                (("speed", "by speed [rad/s]"), ("reversal", "near reversals"), ("angle", "by angle [rad]"),
+                                 ("torque", "by torque [N·m]"), ("stiffness", "by estimated stiffness [N·m/rad]"))):
         _regime_axes(ax, w, wa, key, title)
     fig.text(0.06, 0.965, f"Where the gap lies — {name}", fontsize=12, weight="bold")
     _footer(fig, d)
@@ -172,18 +200,21 @@ def _residual_page(fig, d, name, s):
     t, r = s["time"], s["residual"]
     ax = axes[0]
     ax.plot(t, s["torque"] - np.mean(s["torque"]), color="0.7", lw=0.4, label="torque (centred)")
-    ax.plot(t, r, color="C0", lw=0.4, label="residual, nominal")
-    ax.set_ylabel("N·m", fontsize=7)
+    ax.plot(t, r, color="C0", lw=0.4, label="prediction error, nominal")
+    ax.set_xlabel("time [s]", fontsize=7)
+    ax.set_ylabel("torque [N·m]", fontsize=7)
     ax.legend(fontsize=6, loc="upper right")
-    ax.set_title("measured torque and the nominal model's residual", fontsize=8)
+    ax.set_title("measured torque and the nominal model's one-step prediction error", fontsize=8)
     ax = axes[1]
     ax.plot(t, r, color="C0", lw=0.4, label="nominal")
     if "residual_after" in s:
         ax.plot(t, s["residual_after"], color="C3", lw=0.4, label="after: " + ", ".join(d.diagnosis))
+    else:
+        ax.text(0.5, 0.9, "no effect chosen: nothing to compare", transform=ax.transAxes, ha="center", fontsize=6)
     ax.set_xlabel("time [s]", fontsize=7)
-    ax.set_ylabel("N·m", fontsize=7)
+    ax.set_ylabel("prediction error [N·m]", fontsize=7)
     ax.legend(fontsize=6, loc="upper right")
-    ax.set_title("residual before and after the chosen effects", fontsize=8)
+    ax.set_title("one-step prediction error before and after the chosen effects", fontsize=8)
     ax = axes[2]
     wh = s["where"]["whiteness"]
     lags = np.asarray(wh["lags"]) * wh["sample_period_s"]
@@ -194,9 +225,10 @@ def _residual_page(fig, d, name, s):
         ax.plot(lags, wh["reference"], color="0.5", lw=0.8, label="filtered white noise")
     ref = np.zeros(len(lags)) if wh["reference"] is None else np.asarray(wh["reference"])
     ax.fill_between(lags, ref - wh["bound"], ref + wh["bound"], color="0.85", lw=0)
-    ax.set_title(f"residual autocorrelation (band: {100 * wh['level']:.0f} % bound; Ljung–Box p = "
-                 f"{wh['p_value']:.2g})", fontsize=8)
+    ax.set_title(f"autocorrelation of the prediction error (band: {100 * wh['level']:.0f} % bound; Ljung–Box "
+                 f"p = {wh['p_value']:.2g})", fontsize=8)
     ax.set_xlabel("lag [s]", fontsize=7)
+    ax.set_ylabel("autocorrelation [1]", fontsize=7)
     ax.legend(fontsize=6)
     ax = axes[3]
     xc = s["where"]["cross_correlation"]["velocity"]
@@ -207,7 +239,8 @@ def _residual_page(fig, d, name, s):
     ax.axhspan(-xc["bound"], xc["bound"], color="0.85", lw=0)
     ax.set_title(f"cross-correlation of the residual with the velocity (peak at {1e3 * xc['peak_lag_s']:.0f} ms; "
                  f"band: Bartlett {100 * xc['level']:.0f} % bound)", fontsize=8)
-    ax.set_xlabel("lag [s] (positive: residual follows the velocity)", fontsize=7)
+    ax.set_xlabel("lag [s] (positive: the error follows the velocity)", fontsize=7)
+    ax.set_ylabel("correlation [1]", fontsize=7)
     ax.legend(fontsize=6)
     fig.text(0.06, 0.965, f"Residual — {name}", fontsize=12, weight="bold")
     _footer(fig, d)
