@@ -124,7 +124,7 @@ def test_every_effect_knows_its_parameters_grid_and_removal():
     for name, eff in EFFECTS.items():
         assert isinstance(eff, Effect) and eff.name == name and eff.description and eff.grid_reason
         shape = eff.grid(scales)[0]
-        term = eff.evaluate(ch, shape)
+        eff.evaluate(ch, shape)
         coef = np.ones(len(eff.amplitudes))
         corr = remove(ch, [(eff, shape, coef)])
         assert set(eff.params(shape, coef)) == set(shape) | set(eff.amplitudes)

@@ -7,11 +7,8 @@ import sys
 
 import click
 
-from .options import fail, load_protocol_or_default, out_option, protocol_option, reports_errors, seed_option
-
-
-def _progress(name, error):
-    click.echo(f"{name}: {'read and analysed' if error is None else 'FAILED: ' + error}", err=True)
+from .options import (fail, jobs_option, load_protocol_or_default, n_jobs, out_option, protocol_option,
+                      reports_errors, seed_option)
 
 
 @click.command("diagnose")
@@ -23,14 +20,17 @@ def _progress(name, error):
               help="The inertia m the set-up assumes (kg·m², or kg); otherwise identified from each trial.")
 @click.option("--damping", type=click.FloatRange(min=0, min_open=True), default=None,
               help="The damping b the set-up assumes (N·m·s/rad, or N·s/m); otherwise identified.")
+@jobs_option
 @reports_errors
-def command(paths, protocol_path, out, seed, inertia, damping):
-    """Diagnose the gap between the nominal model and the trials in PATHS (together: several
-    trials are held out one at a time); write diagnosis.json and diagnosis.pdf."""
+def command(paths, protocol_path, out, seed, inertia, damping, jobs):
+    """Diagnose the gap between the nominal model and the trials in PATHS (together: the effects'
+    amplitudes are shared, each trial is held out block by block); write diagnosis.json and
+    diagnosis.pdf."""
     from ..gap.run import diagnose_files
+    from .progress import Progress
 
     report = diagnose_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, seed=seed,
-                            inertia=inertia, damping=damping, progress=_progress)
+                            inertia=inertia, damping=damping, jobs=n_jobs(jobs), progress=Progress())
     for line in report.failed:
         click.echo(f"limbstiff: error: {line}", err=True)
     if report.diagnosis is None:

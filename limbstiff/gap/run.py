@@ -385,14 +385,51 @@ class DiagnoseReport:
         return 1 if self.failed or self.diagnosis is None else 0
 
 
+def _read_and_analyze(job):
+    """Read and analyse one trial file: (trial, result, None), or (None, None, one-line reason)."""
+    from ..files import read_trial
+    path, name, protocol, seed = job
+    try:
+        trial = read_trial(path, protocol, name=name)
+        return trial, analyze(trial, protocol, seed=seed), None
+    except LimbstiffError as exc:
+        return None, None, " ".join(str(exc).split())
+
+
+def _analyze_all(files, names, protocol: Protocol, seed: int, jobs: int, progress):
+    """Every trial read and analysed, in ``jobs`` processes, in input order; ``progress(outcome,
+    done, total)`` after each (a :class:`~limbstiff.batch.runner.TrialOutcome`)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from ..batch.runner import TrialOutcome
+    work = [(path, name, protocol, seed) for path, name in zip(files, names)]
+    if jobs > 1 and len(work) > 1:
+        pool = ProcessPoolExecutor(max_workers=min(jobs, len(work)))
+        outcomes = pool.map(_read_and_analyze, work)
+    else:
+        pool, outcomes = None, map(_read_and_analyze, work)
+    done = []
+    try:
+        for i, (job, out) in enumerate(zip(work, outcomes), start=1):
+            done.append(out)
+            if progress:
+                progress(TrialOutcome(job[1], str(job[0]), "ok" if out[2] is None else "failed", out[2] or ""),
+                         i, len(work))
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+    return done
+
+
 def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-diagnose",
-                   seed: int = 0, inertia: float | None = None, damping: float | None = None,
+                   seed: int = 0, inertia: float | None = None, damping: float | None = None, jobs: int = 1,
                    progress=None) -> DiagnoseReport:
     """Read the trials named by ``paths``, diagnose them together, write the outputs.
 
     Writes ``OUT/diagnosis.json`` and ``OUT/diagnosis.pdf`` (INTERFACE.md section 5), atomically.
     A trial that cannot be read or analysed is left out with a one-line reason (``failed``);
-    the others are still diagnosed.
+    the others are still diagnosed. The trials are read and analysed in ``jobs`` processes;
+    ``progress(outcome, done, total)`` is called after each.
 
     Raises
     ------
@@ -400,24 +437,18 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
         When no trial file is found.
     """
     from ..batch.discovery import discover, output_names
-    from ..files import read_trial
     from ..files.outputs import write_json
 
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping)
     files = discover(paths)
     names, _ = output_names(files)
     trials, results, failed = [], [], []
-    for path, name in zip(files, names):
-        error = None
-        try:
-            trial = read_trial(path, protocol, name=name)
-            results.append(analyze(trial, protocol, seed=seed))
+    for trial, result, error in _analyze_all(files, names, protocol, seed, jobs, progress):
+        if error is None:
             trials.append(trial)
-        except LimbstiffError as exc:
-            error = " ".join(str(exc).split())
+            results.append(result)
+        else:
             failed.append(error)
-        if progress:
-            progress(name, error)
     out = Path(out)
     if not trials:
         return DiagnoseReport(None, out, tuple(failed))
