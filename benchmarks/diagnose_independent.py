@@ -139,7 +139,7 @@ def _table(rows) -> list[str]:
 def report(rows, seeds, wall: float, jobs: int) -> str:
     given = [r for r in rows if r["given"]]
     ident = {(r["trial"], r.get("seed")): r for r in rows if not r["given"]}
-    lines = [f"# `limbstiff diagnose` on an independent simulator's trials", "",
+    lines = ["# `limbstiff diagnose` on an independent simulator's trials", "",
              f"Written by `python benchmarks/diagnose_independent.py` on {machine()}; suite seeds "
              f"{', '.join(map(str, seeds))}; {len(rows)} diagnoses in {wall / 60:.1f} min on {jobs} processes.", "",
              "## m and b given", ""]
@@ -147,9 +147,8 @@ def report(rows, seeds, wall: float, jobs: int) -> str:
                           ("same", "Same forms (the diagnosis's own regressors)"), ("clean", "Clean trials")):
         lines += [f"### {title}", ""] + _family_lines(given, family) + [""]
     pairs = [(g, ident.get((g["trial"], g.get("seed")))) for g in given]
-    same = [(not g.get("chosen") and not i.get("chosen")) or (g.get("chosen") and i.get("chosen")
-                                                               and g["chosen"][0] == i["chosen"][0])
-            for g, i in pairs if i is not None and "error" not in g and "error" not in i]
+    same = [g["chosen"][:1] == i["chosen"][:1] for g, i in pairs
+            if i is not None and "error" not in g and "error" not in i]
     failed = [i for _, i in pairs if i is not None and "error" in i]
     lines += ["## m and b identified instead of given", "",
               f"- same first effect (or both empty) as with m and b given: **{_share(same)}** of the trials both "
@@ -161,15 +160,21 @@ def report(rows, seeds, wall: float, jobs: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(seeds, jobs: int) -> str:
+def main(seeds, jobs: int, rows_from: Path | None = None) -> str:
     t0 = time.perf_counter()
     rows = []
-    for seed in seeds:
-        for r in run([seed], jobs):
-            rows.append({**r, "seed": seed, "trial": f"{r['trial']}@{seed}" if len(seeds) > 1 else r["trial"]})
-    text = report(rows, seeds, time.perf_counter() - t0, jobs)
+    if rows_from is not None:
+        saved = json.loads(rows_from.read_text())
+        rows, wall = saved["rows"], saved["wall_s"]
+    else:
+        for seed in seeds:
+            for r in run([seed], jobs):
+                rows.append({**r, "seed": seed, "trial": f"{r['trial']}@{seed}" if len(seeds) > 1 else r["trial"]})
+        wall = time.perf_counter() - t0
+        (HERE / "diagnose_independent.json").write_text(json.dumps({"seeds": seeds, "wall_s": wall, "rows": rows},
+                                                                   indent=1, default=float), encoding="utf-8")
+    text = report(rows, seeds, wall, jobs)
     (HERE / "diagnose_independent.md").write_text(text, encoding="utf-8")
-    (HERE / "diagnose_independent.json").write_text(json.dumps(rows, indent=1, default=float), encoding="utf-8")
     update_section("diagnose-independent", text.replace("# `limbstiff", "## `limbstiff", 1))
     return text
 
@@ -178,5 +183,7 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[7100, 7200])
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--report-only", action="store_true",
+                    help="rewrite the report from benchmarks/diagnose_independent.json without running")
     args = ap.parse_args()
-    print(main(args.seeds, args.jobs))
+    print(main(args.seeds, args.jobs, HERE / "diagnose_independent.json" if args.report_only else None))

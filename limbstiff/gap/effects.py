@@ -104,6 +104,26 @@ def _geom(lo: float, hi: float, k: int) -> list[float]:
 
 # --- the library --------------------------------------------------------------------------
 
+def _hysteresis_low(s) -> float:
+    """The narrowest Dahl loop resolved, rad: twice the angle resolution, or 2 % of the RMS angle."""
+    return max(2 * s.angle_resolution, 0.02 * s.angle)
+
+
+def _friction_grid(s) -> list[dict]:
+    """Coulomb friction's shapes: smoothing velocities, then presliding angles up to the
+    narrowest hysteresis loop (where the two effects are one torque)."""
+    low = _hysteresis_low(s)
+    return ([{"smoothing_velocity": v} for v in _geom(max(s.velocity_noise, 0.003 * s.velocity), 0.3 * s.velocity, 6)]
+            + [{"presliding_angle": v} for v in _geom(max(2 * s.angle_resolution, 0.1 * low), low, 3)])
+
+
+def _friction(ch, sh):
+    """tanh(ẏ/v_ε), or the Dahl friction state over the presliding angle (unit amplitude), shape (n,)."""
+    if "presliding_angle" in sh:
+        return dahl(ch.angle, sh["presliding_angle"])
+    return coulomb(ch.velocity, sh["smoothing_velocity"])
+
+
 def _quadratic(ch, sh):
     """ẏ|ẏ| of the filtered velocity, (rad/s)², shape (n,)."""
     v = ch.velocity
@@ -130,14 +150,16 @@ TIME_DELAYS_S = tuple(np.round(np.arange(-0.050, 0.0501, 0.001), 3))
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in (
     TorqueEffect(
-        name="coulomb_friction", description="Coulomb friction F_c·tanh(ẏ/v_ε) opposing motion "
-        "(bearings, seals, cable guides).", amplitudes=("friction_torque",),
-        units={"friction_torque": "N·m", "smoothing_velocity": "rad/s"},
-        grid=lambda s: [{"smoothing_velocity": v} for v in _geom(max(s.velocity_noise, 0.003 * s.velocity),
-                                                                 0.3 * s.velocity, 6)],
+        name="coulomb_friction", description="Coulomb friction F_c opposing motion (bearings, seals, cable "
+        "guides): F_c·tanh(ẏ/v_ε), or with presliding (LuGre's bristles, Dahl's friction model) F_c·z, "
+        "dz/dy = (sgn(ẏ) − z)/y_p, the friction building up over the presliding angle y_p after each "
+        "reversal.", amplitudes=("friction_torque",),
+        units={"friction_torque": "N·m", "smoothing_velocity": "rad/s", "presliding_angle": "rad"},
+        grid=_friction_grid,
         grid_reason="v_ε from the velocity noise level (below it the sign of ẏ is unknown) to 0.3×RMS "
-        "velocity (above it tanh is nearly linear over the motion: a viscous term)",
-        torque=lambda ch, sh: coulomb(ch.velocity, sh["smoothing_velocity"])),
+        "velocity (above it tanh is nearly linear over the motion: a viscous term); presliding angles "
+        "from a tenth of the narrowest hysteresis loop to it (a wider loop is hysteresis)",
+        torque=_friction),
     TorqueEffect(
         name="quadratic_damping", description="Quadratic (turbulent, viscoelastic) damping c·ẏ|ẏ|.",
         amplitudes=("coefficient",), units={"coefficient": "N·m·s²/rad²"}, grid=lambda s: [{}], grid_reason="no shape parameter",
@@ -146,8 +168,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         name="hysteresis", description="Dahl hysteresis z with dz/dy = (sgn(ẏ)·F − z)/y_c: a friction "
         "torque that builds up over the angle y_c after each reversal (soft tissue, short-range "
         "stiffness).", amplitudes=("amplitude",), units={"amplitude": "N·m", "characteristic_angle": "rad"},
-        grid=lambda s: [{"characteristic_angle": v} for v in _geom(max(2 * s.angle_resolution, 0.02 * s.angle),
-                                                                   s.angle, 6)],
+        grid=lambda s: [{"characteristic_angle": v} for v in _geom(_hysteresis_low(s), s.angle, 6)],
         grid_reason="y_c from twice the angle resolution (a narrower loop is Coulomb friction) to the RMS "
         "angle (a loop that never saturates acts as a spring)",
         torque=lambda ch, sh: dahl(ch.angle, sh["characteristic_angle"]), lower_limit="coulomb_friction"),

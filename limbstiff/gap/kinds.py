@@ -106,8 +106,8 @@ class Effect:
         the model's amplitude vector (none for a channel correction).
     kind : {"dynamics", "measurement", "mechanics"}
     lower_limit : str or None
-        The effect this one becomes at the lower edge of its grid (a Dahl loop narrower than the
-        grid resolves is Coulomb friction): named instead when the two cannot be told apart.
+        The effect this one becomes at the lower edge of its grid (a Dahl loop as narrow as the
+        grid resolves is a friction): named instead when it qualifies too.
     units : Mapping of str to str
         Unit of each parameter (rotational joints; read N for N·m and m for rad on a
         translational one); dimensionless ones are "1".

@@ -157,7 +157,7 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping)
     trials = list(trials)
     results = list(results) if results is not None else [analyze(t, protocol, seed=seed) for t in trials]
-    channels = [channels_from(t, r) for t, r in zip(trials, results)]
+    channels = [channels_from(t, r, protocol) for t, r in zip(trials, results)]
     effects, library_notes = candidate_library(channels, effects)
     try:
         problem = crossval.build_problem(channels, blocks=blocks)
@@ -172,7 +172,9 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     trials_info = _trials_info(run)
     floor = float(np.average([t["noise_floor"] for t in trials_info],
                              weights=[np.sum(problem.deviation[problem.trial == i] ** 2) for i in range(len(trials))]))
-    notes = library_notes + _notes(channels)
+    notes = library_notes + [f"{orig} was fitted at the narrowest loop its grid allows and is named {name}: a "
+                             f"friction whose presliding compliance shows (see selection._at_limit); not tried "
+                             "again" for orig, name in run.sel.named_as.items()] + _notes(channels)
     return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC,
                      gap_train=float(run.sel.nominal.rss_train) / run.den, gap_heldout=run.nominal_heldout / run.den,
                      noise_floor=floor, heldout=_heldout(problem), where=where_out, candidates=tuple(candidates),

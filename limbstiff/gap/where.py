@@ -261,10 +261,3 @@ def change_points(values: np.ndarray, *, penalty: float | None = None, min_size:
 
     split(0, n)
     return sorted(found)
-
-
-def filtered_noise_acf(power: np.ndarray, freq: np.ndarray, lags_s: np.ndarray) -> np.ndarray:
-    """Autocorrelation at ``lags_s`` of white noise through a filter of power response ``power``
-    (|H|² on ``freq``, one-sided): ρ(τ) = ∫|H|²cos(2πfτ)df / ∫|H|²df."""
-    den = np.trapezoid(power, freq)
-    return np.array([np.trapezoid(power * np.cos(2 * np.pi * freq * t), freq) / den for t in lags_s])
