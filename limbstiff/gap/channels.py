@@ -164,22 +164,26 @@ class Channels:
         effects (:attr:`identified`), else f − m·ÿ − b·ẏ."""
         return self.torque if self.identified else self.elastic_target()
 
-    def mechanics_columns(self) -> np.ndarray:
-        """ÿ and ẏ (2, n) when m and b are fitted with the effects, else none (0, n)."""
+    def mechanics_columns(self, rows=slice(None)) -> np.ndarray:
+        """ÿ and ẏ (2, r) at ``rows`` when m and b are fitted with the effects, else none (0, r)."""
         if self.identified:
-            return np.vstack([self.acceleration, self.velocity])
-        return np.zeros((0, self.n))
+            return np.vstack([self.acceleration[rows], self.velocity[rows]])
+        return np.zeros((0, len(self.time[rows])))
 
-    def spring_columns(self) -> np.ndarray:
-        """u² and u³ (2, n), u = (y − ȳ)/sd(y) (dimensionless): the static nonlinear part of the
-        spring, a stiffness that depends on the angle (N·m per unit coefficient once fitted)."""
-        u = (self.angle - self.angle.mean()) / max(float(np.std(self.angle)), 1e-300)
+    def spring_columns(self, rows=slice(None)) -> np.ndarray:
+        """u² and u³ (2, r) at ``rows``, u = (y − ȳ)/sd(y) (dimensionless): the static nonlinear part
+        of the spring, a stiffness that depends on the angle (N·m per unit coefficient once fitted)."""
+        u = (self.angle[rows] - self.angle.mean()) / max(float(np.std(self.angle)), 1e-300)
         return np.vstack([u * u, u ** 3])
 
-    def nuisance_columns(self) -> np.ndarray:
-        """Columns fitted per trial in every model: :meth:`mechanics_columns` then
-        :meth:`spring_columns`, shape (k, n)."""
-        return np.vstack([self.mechanics_columns(), self.spring_columns()])
+    def nuisance_columns(self, rows=slice(None)) -> np.ndarray:
+        """Columns fitted per trial in every model, at ``rows``: :meth:`mechanics_columns` then
+        :meth:`spring_columns`, shape (:attr:`n_nuisance`, r)."""
+        return np.vstack([self.mechanics_columns(rows), self.spring_columns(rows)])
+
+    @property
+    def n_nuisance(self) -> int:
+        return 4 if self.identified else 2
 
 
 def channels_from(trial: Trial, result, protocol=None) -> Channels:

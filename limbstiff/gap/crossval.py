@@ -144,7 +144,7 @@ def _composed(problem: Problem, i: int, components, keep: bool = True) -> tuple[
         ch0, lay = problem.channels[i], problem.layouts[i]
         ch, regs = compose(ch0, components)
         rows = lay.rows
-        chans = [ch.target()[None, rows], ch.nuisance_columns()[:, rows]] + [r[:, rows] for r in regs]
+        chans = [ch.target()[None, rows], ch.nuisance_columns(rows)] + [r[:, rows] for r in regs]
         hit = (ch, nominal.Steps(angle=ch.angle[rows], channels=np.vstack(chans), scale=ch0.torque[rows],
                                  step=lay.step_s))
         if keep:
@@ -224,7 +224,7 @@ class Design:
 def design(problem: Problem, components, noise, effect: Effect | None = None, shape: dict | None = None) -> Design:
     """The model's :class:`Design` at the trials' noise levels ``noise`` (one per trial)."""
     per = [trial_steps(problem, i, components, effect, shape) for i in range(len(problem.channels))]
-    n_own = [len(ch.nuisance_columns()) for ch in problem.channels]
+    n_own = [ch.n_nuisance for ch in problem.channels]
     k_own = sum(n_own)
     n_shared = per[0].channels.shape[0] - 1 - n_own[0]
     rows = len(problem.fold)
@@ -380,7 +380,7 @@ def evaluate(problem: Problem, base_components, effect: Effect | None = None, *,
         mech, k = [], 0
         for ch in problem.channels:
             mech.append(tuple(coef[k:k + 2]) if ch.identified else None)
-            k += len(ch.nuisance_columns())
+            k += ch.n_nuisance
     return Evaluation(effect=None if effect is None else effect.name, unit_rss=problem.unit_sum(held ** 2),
                       shape=dict(shape), coef=shared[p_shared - p_new:], base_coef=shared[:p_shared - p_new],
                       mechanics=mech, rss_train=float(np.sum(resid ** 2)), fitted=np.where(problem.scored, fitted, 0.0),

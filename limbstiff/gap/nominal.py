@@ -31,6 +31,7 @@ no I/O.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.optimize import minimize
@@ -173,16 +174,24 @@ class Steps:
     scale: np.ndarray
     step: float
 
-    def _pass_args(self, noise: NoiseLevels):
+    @cached_property
+    def _prepared(self) -> tuple:
+        """What every filter pass shares: increments, each channel's initial slope (its
+        least-squares slope on y over the first tenth), the diffuse initial variances."""
         y = self.angle
         n0 = max(8, len(y) // 10)
         yc = y[:n0] - y[:n0].mean()
         yy = float(yc @ yc) or 1.0
-        slopes = np.array([yc @ (c[:n0] - c[:n0].mean()) / yy for c in self.channels])
+        head = self.channels[:, :n0]
+        slopes = (head - head.mean(axis=1, keepdims=True)) @ yc / yy
         v = float(np.var(self.scale)) + 1e-300
-        return (np.diff(y, prepend=y[0]), np.ascontiguousarray(self.channels), slopes, float(noise.measurement),
-                float(noise.torque_walk * self.step), float(noise.stiffness_walk * self.step), v,
+        return (np.diff(y, prepend=y[0]), np.ascontiguousarray(self.channels), slopes, v,
                 v / max(float(np.var(y)), 1e-300), np.zeros(len(y), dtype=bool))
+
+    def _pass_args(self, noise: NoiseLevels):
+        d, chans, slopes, p11, p22, restart = self._prepared
+        return (d, chans, slopes, float(noise.measurement), float(noise.torque_walk * self.step),
+                float(noise.stiffness_walk * self.step), p11, p22, restart)
 
     def innovations(self, noise: NoiseLevels) -> tuple[np.ndarray, np.ndarray]:
         """Each channel's innovations (c, r) and their common variance S (r,), (N·m)²."""
