@@ -150,7 +150,7 @@ def test_a_new_effect_is_one_object():
                          torque=lambda ch, sh: ch.angle ** 3, smooth=True, units={"coefficient": "N·m/rad³"})
     trial = simulate("ankle", seed=5, params={"duration": 8.0}, effect="coulomb_friction")
     d = diagnose([trial], seed=0, effects={"cubic": cubic, "coulomb_friction": EFFECTS["coulomb_friction"]})
-    assert {c.effect for c in d.candidates} == {"cubic", "coulomb_friction"}
+    assert {c.effect for c in d.candidates if c.evidence["tried"]} == {"cubic", "coulomb_friction"}
     assert d.candidate("cubic").units == {"coefficient": "N·m/rad³"}
     assert d.diagnosis == ("coulomb_friction",)
 
@@ -214,7 +214,10 @@ def test_gravity_and_drift_are_held_by_the_model_and_said_so():
     # elastic torque: neither is a candidate, neither is diagnosed, and the notes say why
     trial = _trial("ankle", "gravity", 22)
     d = _diagnose(trial)
-    assert d.diagnosis == () and "gravity" not in {c.effect for c in d.candidates}
+    assert d.diagnosis == ()
+    for name in ("gravity", "sensor_drift"):
+        c = d.candidate(name)
+        assert not c.evidence["tried"] and c.shrink_heldout == 0.0 and c.evidence["reason"]
     assert any(n.startswith("gravity") and "operating angle" in n for n in d.notes)
     assert any(n.startswith("sensor drift") for n in d.notes)
     # the stiffness the tool reports includes −mgl (20 % × 1.6 of the stiffness here): the bias the
@@ -227,7 +230,7 @@ def test_identified_mechanics_are_fitted_with_the_effects():
     # each candidate's model carries its own m and b
     trial = _trial("ankle", "reflex", 16, direction=-1.0, delay=0.065)
     d = diagnose([trial], Protocol(), seed=1)
-    names = {c.effect for c in d.candidates}
+    names = {c.effect for c in d.candidates if c.evidence["tried"]}
     assert not names & {"inertia_error", "damping_error"}
     assert any("inertia_error and damping_error are not separate effects" in n for n in d.notes)
     assert d.diagnosis[:1] == ("reflex",)
@@ -260,8 +263,10 @@ def test_cli_writes_the_contract(tmp_path):
     assert {"metric", "train", "heldout"} <= set(data["gap"])
     assert data["diagnosis"][0] == "reflex" and data["seed"] == 3
     names = {c["effect"] for c in data["candidates"]}
-    assert {"coulomb_friction", "quadratic_damping", "hysteresis", "backlash", "time_delay", "reflex",
-            "inertia_error", "damping_error"} == names
+    # every effect name of the interface has its entry; gravity and drift say why they are not tried
+    assert {"coulomb_friction", "quadratic_damping", "hysteresis", "backlash", "time_delay", "reflex", "gravity",
+            "sensor_drift", "inertia_error", "damping_error"} == names
+    assert {c["effect"] for c in data["candidates"] if not c["evidence"]["tried"]} == {"gravity", "sensor_drift"}
     for c in data["candidates"]:
         assert {"effect", "params", "units", "gap_train", "gap_heldout", "shrink_heldout", "shrink_heldout_interval",
                 "evidence", "stiffness_bias"} <= set(c)

@@ -167,6 +167,7 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     run = _Run(trials, results, channels, protocol, seed, problem, selection.select(problem, effects, rng=rng))
     candidates = sorted((_candidate(run, name, scored, effects[name], rng) for name, scored in run.sel.first.items()),
                         key=lambda c: -c.shrink_heldout)
+    candidates += _untried(run, {c.effect for c in candidates})
     after = _after(run, rng)
     where_out, series = residual.series(problem, run.sel.nominal, run.sel.final if run.chosen else None)
     trials_info = _trials_info(run)
@@ -228,6 +229,34 @@ class _Run:
                                 nominal_stiffness=self.nominal_stiffness, mechanics=mechanics)
 
 
+#: The effect names of the interface (INTERFACE.md section 5) and why one is not tried as a term.
+NOT_TRIED = {
+    "gravity": "a torque that depends on the angle alone is a generalized stiffness, which the model holds (its "
+               "static nonlinear spring and its walking stiffness); it cannot be told from stiffness in these data",
+    "sensor_drift": "a slow drift of the torque offset is a walk of the elastic torque, which the model holds (its "
+                    "torque walk Q_s)",
+    "inertia_error": "m and b were identified and are fitted together with every effect",
+    "damping_error": "m and b were identified and are fitted together with every effect",
+}
+
+
+def _untried(run: _Run, tried: set) -> list[Candidate]:
+    """An entry for each effect name of the interface that was not tried, saying why (its gaps
+    are the nominal model's, its shrink 0)."""
+    train, held = float(run.sel.nominal.rss_train) / run.den, run.nominal_heldout / run.den
+    identified = any(c.identified for c in run.channels)
+    out = []
+    for name, why in NOT_TRIED.items():
+        if name in tried:
+            continue
+        if name in ("inertia_error", "damping_error") and not identified:
+            why = "not in the candidate library given"
+        out.append(Candidate(effect=name, description="not tried: " + why, params={}, units={}, gap_train=train,
+                             gap_heldout=held, shrink_heldout=0.0, shrink_interval=(0.0, 0.0),
+                             evidence={"tried": False, "reason": why}, stiffness_bias={}))
+    return out
+
+
 def _walks(ev) -> list[float]:
     """The stiffness walk Q_σ of a model, per trial ((N·m/rad)²/s)."""
     return [float(n.stiffness_walk) for n in ev.noise]
@@ -257,7 +286,7 @@ def _evidence(run: _Run, name: str, scored, eff) -> dict:
     ev, chosen = scored.evaluation, run.chosen
     later = [s[name] for s in run.sel.steps[1:] if name in s]
     shaped = eff.grid(selection.problem_scales(run.problem)) != [{}]
-    return {"identifiable_share": ev.share, "p_value": scored.p_value, "p_adjusted": scored.p_adjusted,
+    return {"tried": True, "identifiable_share": ev.share, "p_value": scored.p_value, "p_adjusted": scored.p_adjusted,
             "significant": scored.significant, "relevant": scored.relevant,
             "share_of_nominal_gap": scored.share_of_nominal, "units": int(len(scored.gains)),
             "units_improved": float(np.mean(scored.gains > 0)),

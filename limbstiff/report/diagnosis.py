@@ -94,7 +94,8 @@ def _summary_page(fig, d):
 
 
 def _effects_page(fig, d):
-    cands = list(d.candidates)
+    cands = [c for c in d.candidates if c.evidence.get("tried", True)]
+    untried = [c for c in d.candidates if not c.evidence.get("tried", True)]
     ax = fig.add_axes([0.30, 0.55, 0.62, 0.38])
     ypos = np.arange(len(cands))[::-1]
     for yy, c in zip(ypos, cands):
@@ -106,8 +107,8 @@ def _effects_page(fig, d):
         ax.plot([100 * lo, 100 * hi], [yy, yy], color="k", lw=1)
     ax.set_yticks(ypos, [c.effect for c in cands])
     ax.axvline(0, color="k", lw=0.6)
-    ax.set_xlabel("held-out gap removed against the nominal model [%] (bar: estimate, line: "
-                  f"{100 * d.settings['ci_level']:.0f} % bootstrap interval)")
+    ax.set_xlabel(f"held-out gap removed [%] (line: {100 * d.settings['ci_level']:.0f} % bootstrap interval)",
+                  fontsize=8)
     ax.set_title("Candidate effects (red: chosen, orange: significant and relevant, grey: not)", fontsize=9)
     rows = [["effect", "fitted parameters", "gap held out", "p (Holm)", "stiffness bias"]]
     for c in cands:
@@ -116,7 +117,7 @@ def _effects_page(fig, d):
                            if k in c.units and (v is None or isinstance(v, (int, float))))
         rows.append([c.effect, params, _pct(c.gap_heldout, 2), f"{c.evidence.get('p_adjusted', float('nan')):.3g}",
                      "—" if bias is None else f"{100 * bias:+.1f} %"])
-    tax = fig.add_axes([0.06, 0.08, 0.88, 0.40])
+    tax = fig.add_axes([0.06, 0.16, 0.88, 0.32])
     tax.axis("off")
     table = tax.table(cellText=rows, loc="upper center", cellLoc="left", colWidths=[0.17, 0.5, 0.11, 0.09, 0.13])
     table.auto_set_font_size(False)
@@ -124,6 +125,7 @@ def _effects_page(fig, d):
     table.scale(1, 1.25)
     fig.text(0.06, 0.965, f"Ranked effects; nominal held-out gap {_pct(d.gap_heldout, 2)}", fontsize=12,
              weight="bold")
+    _lines(fig, 0.13, [f"Not tried: {c.effect} ({c.evidence['reason']})" for c in untried], size=7, step=0.014)
     _footer(fig, d)
 
 
