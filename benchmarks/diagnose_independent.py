@@ -63,6 +63,8 @@ def _one(job) -> dict:
         c = d.candidate(truth["effect"])
         row["shrink"] = c.shrink_heldout
         row["params"] = {k: v for k, v in c.params.items() if not isinstance(v, dict)}
+        walk = c.evidence["stiffness_walk"]
+        row["walk_ratio"] = walk["with_effect"][0] / walk["nominal"][0]
         per = next(iter(c.stiffness_bias["per_trial"].values()))
         obs = informed_samples(result.observable)
         true_median = float(np.median(trial.stiffness_true[obs]))
@@ -108,6 +110,9 @@ def _family_lines(rows, family: str) -> list[str]:
                   f"- wrong effects added per trial: **{np.mean(wrong):.2f}**" if wrong else "",
                   f"- held-out shrink of the right effect: median **{100 * np.median(shrink):.0f} %** "
                   f"(min {100 * np.min(shrink):.0f} %)" if shrink else "",
+                  "- stiffness walk fitted with the right effect over the nominal model's (the walk taking up the "
+                  f"effect before it is in the model): median {np.median([r['walk_ratio'] for r in ok]):.2g}, "
+                  f"below 1 on {_share(r['walk_ratio'] < 1 for r in ok)}" if ok else "",
                   f"- stiffness bias of the right effect, measured against true: within 2 points on "
                   f"{_share(g <= 0.02 for g in gaps)}; median |difference| {100 * np.median(gaps):.1f} points"
                   if gaps else ""]

@@ -325,3 +325,19 @@ def test_marginal_likelihood_matches_the_identification():
     args = st._pass_args(noise)
     expected = kernels.marginal_loglik(*args)[0]
     assert st.marginal_loglik(noise) == pytest.approx(expected, rel=1e-10)
+
+
+def test_cli_diagnoses_several_trials_in_processes(tmp_path):
+    # --jobs 2: both trials read and analysed in worker processes, each reported once, in input order
+    # in the outputs; a missing-channel file among them is one failed line, the others still diagnosed
+    for i, seed in enumerate((51, 52)):
+        write_trial(_trial("ankle", "coulomb_friction", seed, duration=10.0), tmp_path / f"t{i}.csv")
+    (tmp_path / "t2.csv").write_text("time_s,angle_rad\n0,0\n0.001,0.1\n0.002,0.2\n")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["diagnose", str(tmp_path), "--out", str(out), "--inertia", "0.015",
+                                    "--damping", "1.0", "--jobs", "2"])
+    assert res.exit_code == 1, res.output
+    assert sum("[" in ln and "/3]" in ln for ln in res.output.splitlines()) == 3
+    data = json.loads((out / "diagnosis.json").read_text())
+    assert [t["trial"] for t in data["trials"]] == ["t0", "t1"]
+    assert len(data["failed"]) == 1 and "t2.csv" in data["failed"][0]
