@@ -182,71 +182,19 @@ def rts_smoother(d, mean, cov, qs, qk):
     return mean, cov
 
 
-def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
+def kalman_channel_innovations(d, chans, slopes, r, qs, qk, p11, p22, restart):
     """One filter pass of the two-state model over several measurement channels at once.
 
-    The covariance recursion does not depend on the data, so the innovations of every channel
-    share their variance S[k]. For z = Σ_c w_c·chans[c] (for example w = (1, −m, −b) on
-    f, ÿ, ẏ) the log-likelihood is −½·(n·ln 2π + Σ ln S + wᵀ·A·w) with A[c, c'] = Σ e_c·e_c'/S.
-
-    Parameters
-    ----------
-    d : (n,) increments of y
-    chans : (c, n) measurement channels
-    slopes : (c,) initial σ of each channel (its least-squares slope on y)
-    r, qs, qk : noise variances per step
-    p11, p22 : initial variances of s and σ
-    restart : (n,) bool; where True the state restarts (independent blocks of data)
+    The covariance recursion does not depend on the data, so every channel's innovations share
+    their variance S[k], and for z = Σ_c w_c·chans[c] the innovations are Σ_c w_c·e_c[k] (the
+    filter is linear in the data). Arguments as :func:`kalman_quadratic`.
 
     Returns
     -------
-    sum_log_s : float
-    a : ndarray, shape (c, c)
-    """
-    nc = chans.shape[0]
-    n = chans.shape[1]
-    s = np.empty(nc)
-    sig = np.empty(nc)
-    e = np.empty(nc)
-    for c in range(nc):
-        s[c] = chans[c, 0]
-        sig[c] = slopes[c]
-    a = np.zeros((nc, nc))
-    a11 = p11
-    a12 = 0.0
-    a22 = p22
-    sum_log_s = 0.0
-    for i in range(n):
-        if i > 0 and restart[i]:
-            for c in range(nc):
-                s[c] = chans[c, i]
-                sig[c] = slopes[c]
-            a11 = p11
-            a12 = 0.0
-            a22 = p22
-        elif i > 0:
-            di = d[i]
-            for c in range(nc):
-                s[c] += sig[c] * di
-            a11, a12, a22 = _predict(a11, a12, a22, di, qs, qk)
-        sv, g1, g2, a11, a12, a22 = _update(a11, a12, a22, r)
-        for c in range(nc):
-            e[c] = chans[c, i] - s[c]
-            s[c] += g1 * e[c]
-            sig[c] += g2 * e[c]
-        for c in range(nc):
-            for c2 in range(nc):
-                a[c, c2] += e[c] * e[c2] / sv
-        sum_log_s += math.log(sv)
-    return sum_log_s, a
-
-
-def kalman_channel_innovations(d, chans, slopes, r, qs, qk, p11, p22, restart):
-    """The filter pass of :func:`kalman_quadratic` keeping every step's innovations.
-
-    Returns ``innovations`` (c, n), each channel's one-step prediction errors, and their common
-    variance ``variance`` (n,): for z = Σ_c w_c·chans[c] the innovations are Σ_c w_c·innovations[c]
-    (the filter is linear in the data and its gains do not depend on them).
+    innovations : ndarray, shape (c, n)
+        Each channel's one-step prediction errors.
+    variance : ndarray, shape (n,)
+        Their common variance S.
     """
     nc = chans.shape[0]
     n = chans.shape[1]
@@ -283,6 +231,40 @@ def kalman_channel_innovations(d, chans, slopes, r, qs, qk, p11, p22, restart):
     return innovations, variance
 
 
+def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
+    """One filter pass of the two-state model over several measurement channels at once.
+
+    The covariance recursion does not depend on the data, so the innovations of every channel
+    share their variance S[k]. For z = Σ_c w_c·chans[c] (for example w = (1, −m, −b) on
+    f, ÿ, ẏ) the log-likelihood is −½·(n·ln 2π + Σ ln S + wᵀ·A·w) with A[c, c'] = Σ e_c·e_c'/S.
+
+    Parameters
+    ----------
+    d : (n,) increments of y
+    chans : (c, n) measurement channels
+    slopes : (c,) initial σ of each channel (its least-squares slope on y)
+    r, qs, qk : noise variances per step
+    p11, p22 : initial variances of s and σ
+    restart : (n,) bool; where True the state restarts (independent blocks of data)
+
+    Returns
+    -------
+    sum_log_s : float
+    a : ndarray, shape (c, c)
+    """
+    innovations, variance = kalman_channel_innovations(d, chans, slopes, r, qs, qk, p11, p22, restart)
+    nc = chans.shape[0]
+    a = np.zeros((nc, nc))
+    sum_log_s = 0.0
+    for i in range(chans.shape[1]):
+        w = 1.0 / variance[i]
+        for c in range(nc):
+            for c2 in range(nc):
+                a[c, c2] += innovations[c, i] * innovations[c2, i] * w
+        sum_log_s += math.log(variance[i])
+    return sum_log_s, a
+
+
 def marginal_loglik(d, chans, slopes, r, qs, qk, p11, p22, restart):
     """Log-likelihood of the noise levels with the weights of channels 1 and 2 (−m, −b)
     integrated out under a flat prior, and their Gaussian posterior (see
@@ -315,7 +297,7 @@ def _compile():
     g = globals()
     # callees first, so that the compiled callers call compiled code
     for name in ("_predict", "_update", "_advance", "_observe", "linear_recursion", "kalman_filter", "kalman_innovations", "kalman_loglik",
-                 "rts_smoother", "kalman_quadratic", "kalman_channel_innovations",
+                 "rts_smoother", "kalman_channel_innovations", "kalman_quadratic",
                  "marginal_loglik"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True
