@@ -184,7 +184,7 @@ def report(rows, wall, jobs, real_out) -> str:
     labels = list(EFFECTS) + ["none"]
     counts = Counter((r["effect"], r["first"]) for r in rows)
     lines += [f"## Simulated trials ({len(rows)}: {len(JOINTS)} joints × {len(EFFECTS)} effects × "
-              f"{len(effect_rows) // (len(JOINTS) * len(EFFECTS))} seeds, and {len(clean)} clean; "
+              f"{(len(effect_rows) + len(held)) // (len(JOINTS) * len(EFFECTS))} seeds, and {len(clean)} clean; "
               f"{DURATION:.0f} s each; {wall / 60:.1f} min on {jobs} processes)", "",
               "Confusion matrix: rows the true effect, columns the first effect chosen (\"none\": empty diagnosis).",
               "", "| true \\ first | " + " | ".join(_short(x) for x in labels) + " | right |",

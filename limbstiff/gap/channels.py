@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..estimate.kalman import NoiseLevels
-from ..filtered import FilterChain, Filtered, filter_trial
+from ..filtered import FilterChain, Filtered
 from ..trial import Trial
 
 
@@ -186,34 +186,28 @@ class Channels:
         return 4 if self.identified else 2
 
 
-def channels_from(trial: Trial, result, protocol=None) -> Channels:
+def channels_from(trial: Trial, result) -> Channels:
     """Build the :class:`Channels` of a trial from its stiffness analysis.
 
-    The signals are the analysis's own filtered ones, except when its corner scan lowered the
-    corner below the one the spectra gave (:mod:`limbstiff.bandwidth`): the scan lowers it when
-    the model predicts the torque better without the higher band — which an unmodelled effect
-    causes — so the diagnosis filters at the spectra's corner, where the effect is still in the
-    data (measured: LuGre friction on a slow elbow trial led the scan from 4.4 to 1.4 Hz, where
-    10 scoring units of 2.3 s were left and backlash was named instead of friction). A corner
-    lowered for a compliant coupling is kept.
+    The signals are the analysis's own filtered ones, at the corner it chose — also when its
+    corner scan lowered the corner below the spectra's (:mod:`limbstiff.bandwidth`), which an
+    unmodelled effect can cause. Measured both ways: at the spectra's corner (148 Hz instead of
+    74 Hz) the real z_pf trial's m and b fitted on the innovations fell to 0.011 kg·m² and a
+    negative damping, and its nominal stiffness to 18 N·m/rad (74 Hz: 0.016, 0.96, 64; reference
+    0.0165, 0.65, 69); at the chosen corner, a simulated slow elbow trial with LuGre friction,
+    which had led the scan from 4.4 to 1.4 Hz, is diagnosed as backlash instead of friction.
 
     Parameters
     ----------
     trial : Trial
     result : StiffnessResult
         The analysis of ``trial`` (gives the filtered signals, m, b and σ̂).
-    protocol : Protocol, optional
-        The analysis's protocol (to filter again at the spectra's corner).
 
     Returns
     -------
     Channels
     """
     f = result.filtered
-    scan, coupled = result.corner_scan, result.coupling is not None and result.coupling.found
-    if (protocol is not None and scan is not None and not coupled and scan.spectral_hz is not None
-            and scan.chosen_hz is not None and scan.chosen_hz < scan.spectral_hz):
-        f = filter_trial(trial, protocol, corner_hz=scan.spectral_hz)
     external = result.variant == "external"
     raw_torque = trial.torque if external else trial.elastic_torque
     if external:

@@ -157,7 +157,7 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping)
     trials = list(trials)
     results = list(results) if results is not None else [analyze(t, protocol, seed=seed) for t in trials]
-    channels = [channels_from(t, r, protocol) for t, r in zip(trials, results)]
+    channels = [channels_from(t, r) for t, r in zip(trials, results)]
     effects, library_notes = candidate_library(channels, effects)
     try:
         problem = crossval.build_problem(channels, blocks=blocks)
@@ -220,8 +220,12 @@ class _Run:
 
     @functools.cached_property
     def nominal_stiffness(self) -> list[float]:
-        """Each trial's :func:`median_stiffness` with the nominal m and b."""
-        return [median_stiffness(t, r, c, self.protocol) for t, r, c in zip(self.trials, self.results, self.channels)]
+        """Each trial's :func:`median_stiffness` with the nominal m and b: those given, or, when
+        identified, those the diagnosis's nominal model fits (so that an effect's bias is measured
+        between two fits of the same model, with and without it)."""
+        mech = self.sel.nominal.mechanics or [None] * len(self.trials)
+        return [median_stiffness(t, r, c, self.protocol, *(m if m is not None else (None, None)))
+                for t, r, c, m in zip(self.trials, self.results, self.channels, mech)]
 
     def stiffness_change(self, fitted: list, mechanics=None) -> dict:
         """:func:`stiffness_change` of the same fitted effects removed from every trial."""
