@@ -308,7 +308,7 @@ def _real_section(out) -> list[str]:
         cells = []
         for t in tables:
             c = t.get(eff)
-            cells.append("—" if c is None else f"{100 * c[1]:.1f} % (p {c[3]:.2g})")
+            cells.append("—" if c is None else "not tried" if c[3] is None else f"{100 * c[1]:.1f} % (p {c[3]:.2g})")
         lines.append(f"| {eff} | " + " | ".join(cells) + " |")
     amb = [f"{n}: " + "; ".join(" vs ".join(a["effects"]) for a in out[n]["ambiguities"])
            for n in ("z_df", "z_df2", "z_df3", "z_pf", "z_pf2") if out[n]["ambiguities"]]
