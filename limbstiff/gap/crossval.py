@@ -333,6 +333,20 @@ def _choose_shapes(problem: Problem, base_components, effect, shapes, noise):
     return chosen[:k], chosen[k]
 
 
+def _heldout_errors(problem: Problem, base_components, noise, effect, fold_shapes) -> np.ndarray:
+    """One-step prediction errors (R,) of each fold's held-out steps, the coefficients fitted on
+    its training steps at its shape (zero where not scored), N·m."""
+    held = np.zeros(len(problem.fold))
+    for sh in {tuple(sorted(s.items())) for s in fold_shapes}:
+        folds = [j for j, s in enumerate(fold_shapes) if tuple(sorted(s.items())) == sh]
+        d = design(problem, base_components, noise, effect, dict(sh))
+        coefs, _ = d.fit(problem.training[folds])
+        for j, coef in zip(folds, coefs):
+            test = problem.scored & (problem.fold == j)
+            held[test] = d.target[test] - d.columns[test] @ coef
+    return held
+
+
 def evaluate(problem: Problem, base_components, effect: Effect | None = None, *,
              shapes: list | None = None) -> Evaluation:
     """Fit the base model (with ``effect`` profiled over ``shapes``) and score it held out.
@@ -357,14 +371,7 @@ def evaluate(problem: Problem, base_components, effect: Effect | None = None, *,
     else:
         fold_shapes, shape = _choose_shapes(problem, base_components, effect, shapes or [{}], base_noise)
         noise = _noise(problem, base_components, effect, shape, start=base_noise)
-    held = np.zeros(len(problem.fold))
-    for sh in {tuple(sorted(s.items())) for s in fold_shapes}:
-        folds = [j for j, s in enumerate(fold_shapes) if tuple(sorted(s.items())) == sh]
-        d = design(problem, base_components, noise, effect, dict(sh))
-        coefs, _ = d.fit(problem.training[folds])
-        for j, coef in zip(folds, coefs):
-            test = problem.scored & (problem.fold == j)
-            held[test] = d.target[test] - d.columns[test] @ coef
+    held = _heldout_errors(problem, base_components, noise, effect, fold_shapes)
     d = design(problem, base_components, noise, effect, shape)
     coef = d.fit(problem.scored[None])[0][0]
     resid = np.where(problem.scored, d.target - d.columns @ coef, 0.0)
@@ -379,7 +386,7 @@ def evaluate(problem: Problem, base_components, effect: Effect | None = None, *,
     if any(ch.identified for ch in problem.channels):
         mech, k = [], 0
         for ch in problem.channels:
-            mech.append(tuple(coef[k:k + 2]) if ch.identified else None)
+            mech.append(tuple(float(v) for v in coef[k:k + 2]) if ch.identified else None)
             k += ch.n_nuisance
     return Evaluation(effect=None if effect is None else effect.name, unit_rss=problem.unit_sum(held ** 2),
                       shape=dict(shape), coef=shared[p_shared - p_new:], base_coef=shared[:p_shared - p_new],

@@ -31,6 +31,21 @@ def jsonable(value):
     return value
 
 
+#: Units of the quantities of ``diagnosis.json`` whose key does not name one (rotational joints;
+#: read N for N·m and m for rad on a translational one). Effect parameters carry their own
+#: (``candidates[].units``, ``after.units``).
+UNITS = {
+    "gap": "fraction of the torque's variance (sum of squared one-step prediction errors over the sum of squared "
+           "deviations of the torque from its mean)",
+    "trials.inertia": "kg·m²", "trials.damping": "N·m·s/rad", "trials.stiffness_median": "N·m/rad",
+    "trials.noise_levels.measurement": "(N·m)²", "trials.noise_levels.torque_walk": "(N·m)²/s",
+    "trials.noise_levels.stiffness_walk": "(N·m/rad)²/s", "after.mechanics.inertia": "kg·m²",
+    "after.mechanics.damping": "N·m·s/rad", "stiffness_bias.relative": "fraction (nominal/corrected − 1)",
+    "stiffness_bias.nominal": "N·m/rad", "stiffness_bias.corrected": "N·m/rad",
+    "where.frequency.residual_psd": "(N·m)²/Hz", "where.frequency.torque_psd": "(N·m)²/Hz",
+}
+
+
 @dataclass(frozen=True)
 class Candidate:
     """One unmodelled effect, fitted and judged against the nominal model.
@@ -152,6 +167,7 @@ class Diagnosis:
             "notes": list(self.notes),
             "warnings": list(self.warnings),
             "settings": dict(self.settings),
+            "units": UNITS,
             "seed": self.seed,
             "software": {"name": "limbstiff", "version": __version__},
         })
