@@ -341,3 +341,32 @@ def test_cli_diagnoses_several_trials_in_processes(tmp_path):
     data = json.loads((out / "diagnosis.json").read_text())
     assert [t["trial"] for t in data["trials"]] == ["t0", "t1"]
     assert len(data["failed"]) == 1 and "t2.csv" in data["failed"][0]
+
+
+# --- trials from the independent simulator (benchmarks/independent_trials.py, not the method's forms) ---
+
+def _independent(tmp_path, name, form, joint, course, seed):
+    import sys
+    from pathlib import Path
+    from limbstiff.files import read_trial
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import independent_trials as it
+    truth = it.write_trial(it.TrialSpec(name=name, family="t", form=form, joint=joint, course=course, seed=seed,
+                                        duration_s=20.0), tmp_path)
+    proto = Protocol(inertia=truth["inertia"], damping=truth["damping"])
+    return diagnose([read_trial(tmp_path / f"{name}.csv", proto)], proto, seed=0), truth
+
+
+@pytest.mark.parametrize("form,joint,course,expected", [
+    ("stribeck", "elbow", "ramp", ("coulomb_friction",)),          # Stribeck map, stiffness ramping 6 → 30
+    ("quaddampsat", "ankle", "constant", ("quadratic_damping",)),  # c·v|v|/(1 + |v|/v_sat), not c·v|v|
+    (None, "elbow", "cocontraction", ()),                           # clean, stiffness swinging ±50 %
+])
+def test_effects_of_an_independent_simulator(tmp_path, form, joint, course, expected):
+    # seeds outside the benchmark's (benchmarks/diagnose_independent.py uses 7100–7223), 20 s instead of 30
+    seed = {"stribeck": 9001, "quaddampsat": 9002}.get(form, 9003)
+    d, truth = _independent(tmp_path, "t", form, joint, course, seed=seed)
+    assert d.diagnosis == expected, (d.diagnosis, truth["effect_params"])
+    if expected:
+        # the effects are 11–34 % of the torque's RMS, 2–6× its noise: most of the gap is theirs
+        assert d.candidate(expected[0]).shrink_heldout > 0.5
