@@ -14,7 +14,12 @@ shrinkage among those that are both
 * **relevant** — it removes at least :data:`RELEVANCE` of the nominal model's held-out gap;
 
 is added, the others are refitted on top of it, and the search stops when none qualifies. A
-clean recording therefore gets an empty diagnosis. Pure numpy: no I/O.
+clean recording therefore gets an empty diagnosis. Each model compared has its own noise levels
+(:mod:`.crossval`), so a unit's gain also holds the change of the filter's gains; the null
+argument above holds for the effect's term, and measured on clean trials of an independent
+simulator (four with a stiffness changing within the trial) the test stayed quiet on 11 of 12.
+An effect fitted at the lower edge of its grid is named as the effect it becomes there
+(:func:`_at_limit`). Pure numpy: no I/O.
 """
 
 from __future__ import annotations
