@@ -52,8 +52,8 @@ def _summary_page(fig, d):
     y = _lines(fig, 0.92, [f"Trials: {names}", f"Held out: {d.heldout['scheme']} "
                            f"({d.heldout['units']} scoring units of at most one motion period)"])
     y -= 0.01
-    fig.text(0.06, y, "Nominal model: the analysis's Kalman model (m·ÿ + b·ẏ + elastic torque with a walking "
-             "stiffness)", fontsize=10, weight="bold")
+    fig.text(0.06, y, "Nominal model: the analysis's Kalman model (m·ÿ + b·ẏ + walking stiffness)", fontsize=10,
+             weight="bold")
     y -= 0.024
     items = [f"{t['trial']}: m = {t['inertia']:.4g} kg·m², b = {t['damping']:.4g} N·m·s/rad ({t['mechanics']}), "
              f"median stiffness {t['stiffness_median']:.4g} N·m/rad, gap {_pct(t['gap_train'], 2)} "
