@@ -204,6 +204,8 @@ class Design:
         1/√S: the innovations' standard deviation under the model.
     n_nuisance : int
         Columns that belong to one trial.
+    blocks : tuple of (slice, ndarray of int)
+        Each trial's steps and the columns not zero on them (its own and the shared ones).
     raw_norm : float
         Norm of the candidate's regressors before filtering (N·m per unit coefficient), 0 without one.
     """
@@ -212,13 +214,14 @@ class Design:
     columns: np.ndarray
     weight: np.ndarray
     n_nuisance: int
+    blocks: tuple = ()
     raw_norm: float = 0.0
 
     def fit(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Weighted least squares on several row subsets (bool (K, R)): coefficients (K, P) and
         the weighted residual sums of squares (K,)."""
         w = self.weight
-        return _fold_fits(self.target * w, self.columns * w[:, None], rows)
+        return _fold_fits(self.target * w, self.columns * w[:, None], rows, self.blocks)
 
 
 def design(problem: Problem, components, noise, effect: Effect | None = None, shape: dict | None = None) -> Design:
@@ -232,8 +235,10 @@ def design(problem: Problem, components, noise, effect: Effect | None = None, sh
     columns = np.zeros((rows, k_own + n_shared))
     raw = 0.0
     col = 0
+    blocks = []
     for i, (st, k) in enumerate(zip(per, n_own)):
         sl = problem.trial_rows(i)
+        blocks.append((sl, np.r_[col:col + k, k_own:k_own + n_shared]))
         e, var = st.innovations(noise[i])
         target[sl], weight[sl] = e[0], 1.0 / np.sqrt(var)
         columns[sl, col:col + k] = e[1:1 + k].T
@@ -242,10 +247,10 @@ def design(problem: Problem, components, noise, effect: Effect | None = None, sh
         if effect is not None and effect.amplitudes:
             last = st.channels[-len(effect.amplitudes):]
             raw += float(np.sum((last - last.mean(axis=1, keepdims=True)) ** 2))
-    return Design(target, columns, weight, k_own, float(np.sqrt(raw)))
+    return Design(target, columns, weight, k_own, tuple(blocks), float(np.sqrt(raw)))
 
 
-def _fold_fits(z: np.ndarray, X: np.ndarray, weights: np.ndarray):
+def _fold_fits(z: np.ndarray, X: np.ndarray, weights: np.ndarray, blocks=()):
     """Least squares on several row subsets at once, by the normal equations.
 
     Parameters
@@ -254,6 +259,10 @@ def _fold_fits(z: np.ndarray, X: np.ndarray, weights: np.ndarray):
     X : ndarray, shape (R, p)
     weights : ndarray of bool, shape (K, R)
         Rows of each fit.
+    blocks : sequence of (slice, ndarray of int), optional
+        Row blocks and the only columns not zero on them (each trial's own and the shared ones):
+        the normal equations are summed block by block, which with several trials costs a small
+        fraction of the dense product.
 
     Returns
     -------
@@ -269,11 +278,23 @@ def _fold_fits(z: np.ndarray, X: np.ndarray, weights: np.ndarray):
     scale = np.linalg.norm(X, axis=0)
     scale[scale == 0] = 1.0
     Xs = X / scale
-    gram = np.einsum("kr,rp,rq->kpq", w, Xs, Xs, optimize=True)
+    gram = _gram(Xs, w, blocks or ((slice(None), np.arange(p)),))
     rhs = (w * z) @ Xs
     coef_s = np.einsum("kpq,kq->kp", np.linalg.pinv(gram, rcond=1e-10, hermitian=True), rhs)
     rss = zz - np.einsum("kp,kp->k", coef_s, rhs)
     return coef_s / scale, np.maximum(rss, 0.0)
+
+
+def _gram(X: np.ndarray, w: np.ndarray, blocks) -> np.ndarray:
+    """Σ_r w_kr·x_r·x_rᵀ for each row subset k (K, p, p), block by block; one BLAS product per
+    subset and block (several times faster than one einsum over all of them)."""
+    gram = np.zeros((len(w), X.shape[1], X.shape[1]))
+    for rows, cols in blocks:
+        xb = X[rows][:, cols]
+        idx = np.ix_(cols, cols)
+        for k, wk in enumerate(w[:, rows]):
+            gram[k][idx] += xb.T @ (wk[:, None] * xb)
+    return gram
 
 
 @dataclass

@@ -73,15 +73,17 @@ def backlash_direction(ch: Channels, width: float) -> np.ndarray:
     if moves.size == 0:
         return np.zeros(n)
     d = s[np.maximum(np.searchsorted(moves, np.arange(n), side="right") - 1, 0)].astype(float)
-    for j in np.flatnonzero(s[1:] != s[:-1]):
-        start, end = moves[j], moves[j + 1]          # last move one way, first move back
-        jj = min(j + 4, len(moves) - 1)
-        dt = (moves[jj] - end + 1) / ch.fs
-        speed = abs(p[moves[jj]] - p[end - 1]) / dt
-        span = min(end - start - 1, int(round(2.0 * width / max(speed, 1e-12) * ch.fs)))
-        if span > 0:
-            u = np.arange(1, span + 1) / span
-            d[end - span:end] = s[j] * (1.0 - 2.0 * u ** 2)
+    j = np.flatnonzero(s[1:] != s[:-1])               # reversals: last move one way, first move back
+    start, end = moves[j], moves[j + 1]
+    jj = np.minimum(j + 4, len(moves) - 1)
+    speed = np.abs(p[moves[jj]] - p[end - 1]) / ((moves[jj] - end + 1) / ch.fs)
+    span = np.minimum(end - start - 1, np.round(2.0 * width / np.maximum(speed, 1e-12) * ch.fs)).astype(int)
+    keep = span > 0
+    span, end, sign = span[keep], end[keep], s[j[keep]]
+    # the dwells are disjoint, so their swings are written at once
+    offset = np.arange(span.sum()) - np.repeat(np.cumsum(span) - span, span)
+    u = (offset + 1) / np.repeat(span, span)
+    d[np.repeat(end - span, span) + offset] = np.repeat(sign, span) * (1.0 - 2.0 * u ** 2)
     return d
 
 
