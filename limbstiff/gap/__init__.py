@@ -1,12 +1,17 @@
 """Diagnosis of the sim-to-real gap: where the nominal model misses the data, which unmodelled
 effect causes it, and how far the gap shrinks once that effect is added, on held-out data.
 
-Modules (one idea each): ``channels`` (the filtered signals of a trial with the nominal model),
-``nominal`` (the nominal model, its rows, windows and nuisance, the gap metric), ``where`` (the
-residual in time, frequency and regime; whiteness and cross-correlation with bounds),
-``kinds`` (how an effect enters the model), ``effects`` (the candidate library), ``residual`` (a
-model's residual and where it lies, per trial), ``crossval`` (fitting on training folds, scoring held
-out), ``selection`` (greedy selection with a sign-flip test, intervals, ambiguities), ``result``
+The nominal model is the analysis's own time-varying Kalman model; candidate effects are extra
+terms of its torque equation, their linear coefficients fitted on its innovations, its noise
+levels refitted per model; the gap is its held-out one-step-ahead torque prediction error.
+
+Modules (one idea each): ``channels`` (a trial's filtered signals and its analysis), ``nominal``
+(the Kalman model at its steps: innovations, marginal likelihood, noise fit, units and blocks;
+the gap metric), ``where`` (a residual in time, frequency and regime; whiteness and
+cross-correlation with bounds), ``kinds`` (how an effect enters the model), ``effects`` (the
+candidate library), ``residual`` (where a model's prediction errors lie, per trial), ``crossval``
+(a model's innovations as a regression; fitting on training folds, scoring held out),
+``selection`` (greedy selection with a sign-flip test, intervals, ambiguities), ``result``
 (``Diagnosis``, ``Candidate``) and ``run`` (:func:`diagnose`, :func:`diagnose_files`).
 
 The package is named for what it measures (the gap between model and recording); the library
