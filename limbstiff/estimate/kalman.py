@@ -152,19 +152,25 @@ class KalmanStiffness:
     responses: np.ndarray
 
 
+def initial_slopes(angle: np.ndarray, channels: np.ndarray) -> np.ndarray:
+    """The least-squares slope on y of each channel (c, n) over the first tenth (at least 8
+    samples): the initial σ of a filter pass over that channel, linear in it. Shape (c,)."""
+    n0 = max(8, len(angle) // 10)
+    yc = angle[:n0] - angle[:n0].mean()
+    yy = float(yc @ yc) or 1.0          # a still start: yc = 0, so every slope is 0
+    head = np.atleast_2d(channels)[:, :n0]
+    return (head - head.mean(axis=1, keepdims=True)) @ yc / yy
+
+
 def _initial_mean(angle, measured):
     """[s0, σ0]: the first z and the least-squares slope of z on y over the first tenth.
 
     Linear in ``measured``, so that the smoother's mean stays linear in z.
     """
-    n0 = max(8, len(angle) // 10)
-    yc = angle[:n0] - angle[:n0].mean()
-    yy = float(yc @ yc)
-    slope = float(yc @ (measured[:n0] - measured[:n0].mean()) / yy) if yy > 0 else 0.0
-    return float(measured[0]), slope
+    return float(measured[0]), float(initial_slopes(angle, measured)[0])
 
 
-def _initial_cov(angle, scale_from):
+def initial_cov(angle, scale_from):
     """Diffuse initial covariance from the size of a torque signal (not of z, so that it does
     not change with m and b): var(torque) for s, (sd(torque)/sd(y))² for σ."""
     v = float(np.var(scale_from)) + 1e-300
@@ -192,13 +198,10 @@ def noise_bounds(measured_variance: float, stiffness_scale: float, motion_freque
             (np.log(1e-8 * k2 * f), np.log(k2 * f))]
 
 
-def maximise(loglik, start: np.ndarray, bounds: list, max_evaluations: int = 300):
-    """Nelder–Mead over the log noise levels within ``bounds``; returns (best logs, best value).
-
-    The likelihood can have a second, poorer optimum where the stiffness walks fast and
-    explains the torque sample by sample; the search therefore also starts with the
-    stiffness walk 10³ times smaller and larger, and keeps the best.
-    """
+def nelder_mead(loglik, starts, bounds: list, max_evaluations: int = 300):
+    """Nelder–Mead over the log noise levels within ``bounds`` from each of ``starts`` (clipped
+    to the bounds; initial simplex two log units along each level), the best kept; returns
+    (best logs, best value). A non-finite log-likelihood counts as the worst."""
     from scipy.optimize import minimize
 
     lo, hi = np.array(bounds).T
@@ -208,8 +211,8 @@ def maximise(loglik, start: np.ndarray, bounds: list, max_evaluations: int = 300
         return -value if np.isfinite(value) else 1e300
 
     best = None
-    for shift in (0.0, -3 * np.log(10), 3 * np.log(10)):
-        x0 = np.clip(np.asarray(start, dtype=float) + np.array([0.0, 0.0, shift]), lo, hi)
+    for start in starts:
+        x0 = np.clip(np.asarray(start, dtype=float), lo, hi)
         simplex = np.clip(x0 + np.vstack([np.zeros(3), 2.0 * np.eye(3)]), lo, hi)
         res = minimize(negative, x0, method="Nelder-Mead", bounds=bounds,
                        options={"xatol": 0.02, "fatol": 0.01, "maxfev": max_evaluations,
@@ -217,6 +220,18 @@ def maximise(loglik, start: np.ndarray, bounds: list, max_evaluations: int = 300
         if best is None or res.fun < best.fun:
             best = res
     return best.x, -float(best.fun)
+
+
+def maximise(loglik, start: np.ndarray, bounds: list, max_evaluations: int = 300):
+    """Nelder–Mead over the log noise levels within ``bounds``; returns (best logs, best value).
+
+    The likelihood can have a second, poorer optimum where the stiffness walks fast and
+    explains the torque sample by sample; the search therefore also starts with the
+    stiffness walk 10³ times smaller and larger, and keeps the best.
+    """
+    start = np.asarray(start, dtype=float)
+    return nelder_mead(loglik, [start + np.array([0.0, 0.0, shift]) for shift in (0.0, -3 * np.log(10), 3 * np.log(10))],
+                       bounds, max_evaluations)
 
 
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, initial_mean,
@@ -255,7 +270,7 @@ class ModelSteps:
     initial_mean : (float, float)
         [s0, σ0] (:func:`_initial_mean`).
     initial_cov : (float, float, float)
-        Diffuse initial covariance (:func:`_initial_cov`).
+        Diffuse initial covariance (:func:`initial_cov`).
     """
 
     index: np.ndarray
@@ -275,7 +290,7 @@ def model_steps(angle: np.ndarray, measured: np.ndarray, *, sample_period: float
     y, z = angle[idx], measured[idx]
     return ModelSteps(index=idx, angle=y, measured=z, increments=np.diff(y, prepend=y[0]),
                       step=sample_period * decimation, initial_mean=_initial_mean(y, z),
-                      initial_cov=_initial_cov(y, z if scale_from is None else np.asarray(scale_from)[idx]))
+                      initial_cov=initial_cov(y, z if scale_from is None else np.asarray(scale_from)[idx]))
 
 
 def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: float, decimation: int = 1,

@@ -34,11 +34,10 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.optimize import minimize
 
 from ..estimate import kernels
 from ..estimate.estimators import kalman_decimation
-from ..estimate.kalman import NoiseLevels, noise_bounds
+from ..estimate.kalman import NoiseLevels, initial_cov, initial_slopes, nelder_mead, noise_bounds
 from ..estimate.observer import informed_samples
 from .channels import Channels
 
@@ -176,17 +175,12 @@ class Steps:
 
     @cached_property
     def _prepared(self) -> tuple:
-        """What every filter pass shares: increments, each channel's initial slope (its
-        least-squares slope on y over the first tenth), the diffuse initial variances."""
+        """What every filter pass shares: increments, each channel's initial slope, the diffuse
+        initial variances (the analysis's, sized on the recorded torque)."""
         y = self.angle
-        n0 = max(8, len(y) // 10)
-        yc = y[:n0] - y[:n0].mean()
-        yy = float(yc @ yc) or 1.0
-        head = self.channels[:, :n0]
-        slopes = (head - head.mean(axis=1, keepdims=True)) @ yc / yy
-        v = float(np.var(self.scale)) + 1e-300
-        return (np.diff(y, prepend=y[0]), np.ascontiguousarray(self.channels), slopes, v,
-                v / max(float(np.var(y)), 1e-300), np.zeros(len(y), dtype=bool))
+        p11, _, p22 = initial_cov(y, self.scale)
+        return (np.diff(y, prepend=y[0]), np.ascontiguousarray(self.channels), initial_slopes(y, self.channels),
+                p11, p22, np.zeros(len(y), dtype=bool))
 
     def _pass_args(self, noise: NoiseLevels):
         d, chans, slopes, p11, p22, restart = self._prepared
@@ -229,24 +223,17 @@ def fit_noise(steps: Steps, *, start: NoiseLevels, motion_hz: float) -> NoiseLev
     differ by the optimiser, not by the effect.
     """
     z = steps.channels[0]
-    scale = float(np.std(steps.scale) / max(np.std(steps.angle), 1e-300))
-    bounds = noise_bounds(float(np.var(z - z.mean())), scale, motion_hz)
+    bounds = noise_bounds(float(np.var(z - z.mean())), float(np.sqrt(steps._prepared[4])), motion_hz)
     lo, hi = np.array(bounds).T
     x0 = np.clip(np.log([start.measurement, start.torque_walk, start.stiffness_walk]), lo, hi)
 
-    def negative(x):
+    def loglik(x):
         value = steps.marginal_loglik(NoiseLevels(*np.exp(x)))
-        return -value if np.isfinite(value) else 1e300
+        return value if np.isfinite(value) else -np.inf
 
     grid = [np.array([r, x0[1], k]) for r in np.linspace(lo[0], hi[0], 5) for k in np.linspace(lo[2], hi[2], 5)]
-    best = None
-    for x in (x0, min(grid, key=negative)):
-        simplex = np.clip(x + np.vstack([np.zeros(3), 2.0 * np.eye(3)]), lo, hi)
-        res = minimize(negative, x, method="Nelder-Mead", bounds=bounds,
-                       options={"xatol": 0.02, "fatol": 0.01, "maxfev": NOISE_EVALUATIONS, "initial_simplex": simplex})
-        if best is None or res.fun < best.fun:
-            best = res
-    return NoiseLevels(*np.exp(best.x))
+    best, _ = nelder_mead(loglik, (x0, max(grid, key=loglik)), bounds, NOISE_EVALUATIONS)
+    return NoiseLevels(*np.exp(best))
 
 
 def start_noise(ch: Channels, steps: Steps) -> NoiseLevels:

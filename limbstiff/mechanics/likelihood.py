@@ -80,11 +80,8 @@ class MechanicsProblem:
             restart[::size] = True
         y = np.ascontiguousarray(angle[idx], dtype=float)
         chans = np.ascontiguousarray(np.vstack([torque[idx], acceleration[idx], velocity[idx]]), dtype=float)
-        n0 = max(8, len(y) // 10)
-        yc = y[:n0] - y[:n0].mean()
-        yy = float(yc @ yc) or 1.0
-        slopes = np.array([yc @ (c[:n0] - c[:n0].mean()) / yy for c in chans])
-        cov0 = kalman_model._initial_cov(y, chans[0])
+        slopes = kalman_model.initial_slopes(y, chans)
+        cov0 = kalman_model.initial_cov(y, chans[0])
         z = chans[0] - guess.inertia * chans[1] - guess.damping * chans[2]
         bounds = np.array(kalman_model.noise_bounds(float(np.var(z)), float(np.sqrt(cov0[2])), motion_frequency))
         return cls(np.diff(y, prepend=y[0]), chans, slopes, cov0, sample_period * decimation, bounds, restart)
