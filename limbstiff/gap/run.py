@@ -8,7 +8,6 @@ trial files and writes ``diagnosis.json`` and ``diagnosis.pdf``.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,90 +18,17 @@ import numpy as np
 
 from ..analysis import analyze, range_of_motion
 from ..errors import LimbstiffError, TrialError
-from ..estimate import estimators
-from ..estimate.observer import informed_samples
-from ..filtered import filter_trial
 from ..protocol import Protocol
 from ..trial import Trial
 from . import crossval, nominal, residual, selection
-from .channels import Channels, channels_from
+from .bias import median_stiffness, stiffness_change
+from .channels import channels_from
 from .effects import EFFECTS
-from .kinds import MechanicsError, remove
+from .kinds import MechanicsError
 from .result import Candidate, Diagnosis
 
 #: Held-out blocks of a single trial.
 BLOCKS = 5
-
-
-def _median_stiffness(result) -> float:
-    """Median estimated stiffness over the observable samples (all when none is), N·m/rad."""
-    return result.informed_stiffness()[0].median
-
-
-def _corrected_trial(trial: Trial, ch: Channels, corr) -> Trial:
-    """The trial with the recorded channels of a :class:`~.kinds.Correction` put in."""
-    changes = {}
-    if corr.angle is not None:
-        changes["angle"] = corr.angle
-    if corr.torque is not None:
-        changes["torque" if trial.torque is not None and ch.mechanics != "none" else "elastic_torque"] = corr.torque
-    return dataclasses.replace(trial, **changes) if changes else trial
-
-
-def median_stiffness(trial: Trial, result, ch: Channels, protocol: Protocol, inertia: float | None = None,
-                     damping: float | None = None) -> float:
-    """Median Kalman stiffness of ``trial`` over ``result``'s informed samples, N·m/rad.
-
-    The trial is filtered at the analysis's corner and the Kalman estimator run with m and b
-    fixed (``inertia``, ``damping``; default those of ``ch``): the stiffness the analysis would
-    give with them, without its choice of corner, coupling test and checks, so that the nominal
-    and a corrected trial differ only by the correction.
-    """
-    filtered = filter_trial(trial, protocol, corner_hz=ch.cutoff_hz)
-    if ch.mechanics == "none":
-        est = estimators.kalman(filtered)
-    else:
-        est = estimators.kalman(filtered, inertia=ch.inertia if inertia is None else inertia,
-                                damping=ch.damping if damping is None else damping)
-    return float(np.median(est.stiffness[informed_samples(result.observable)]))
-
-
-def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_trial, *, nominal_stiffness,
-                     mechanics=None) -> dict:
-    """Median stiffness of each trial with the fitted effects removed, against the nominal one.
-
-    The trial's recorded channels are corrected (the effect's torque taken off the recorded
-    torque, or its recorded channel corrected, or m and b corrected), m and b fixed — to the
-    nominal values, or to those fitted with the effects when they are identified (``mechanics``:
-    per trial (m, b) or None) — and the stiffness estimated again (:func:`median_stiffness`).
-
-    Returns
-    -------
-    dict
-        ``per_trial`` {name: {nominal, corrected, relative}} with relative = nominal/corrected − 1
-        (the bias the effect puts on the nominal estimate) and ``median_relative``.
-    """
-    per = {}
-    mechanics = mechanics or [None] * len(trials)
-    for trial, res, ch, fitted, mech, nom in zip(trials, results, channels, fitted_per_trial, mechanics,
-                                                 nominal_stiffness):
-        try:
-            if any(not np.all(np.isfinite(np.atleast_1d(coef))) for _, _, coef in fitted):
-                raise LimbstiffError("the effect's amplitude could not be fitted")
-            corr = remove(ch, fitted)
-            if mech is not None:
-                corr = dataclasses.replace(corr, inertia=corr.inertia - ch.inertia + mech[0],
-                                           damping=corr.damping - ch.damping + mech[1])
-            if ch.mechanics != "none" and not (corr.inertia > 0 and corr.damping > 0):
-                raise LimbstiffError(f"the corrected inertia ({corr.inertia:.3g}) or damping ({corr.damping:.3g}) "
-                                     "is not positive")
-            new = median_stiffness(_corrected_trial(trial, ch, corr), res, ch, protocol, corr.inertia, corr.damping)
-        except LimbstiffError as exc:
-            per[trial.name] = {"nominal": nom, "corrected": None, "relative": None, "error": str(exc)}
-            continue
-        per[trial.name] = {"nominal": nom, "corrected": new, "relative": nom / new - 1.0 if new else None}
-    rel = [v["relative"] for v in per.values() if v["relative"] is not None]
-    return {"per_trial": per, "median_relative": float(np.median(rel)) if rel else None}
 
 
 def candidate_library(channels, effects: dict | None = None) -> tuple[dict, list[str]]:
@@ -343,7 +269,7 @@ def _trials_info(run: _Run) -> list[dict]:
                     "inertia": ch.inertia, "damping": ch.damping, "mechanics": ch.mechanics,
                     "cutoff_hz": ch.cutoff_hz, "motion_hz": ch.motion_hz, "steps": int(lay.scored.sum()),
                     "step_s": lay.step_s, "units": lay.n_units,
-                    "stiffness_median": _median_stiffness(r), "noise_levels": run.sel.nominal.noise[i].to_dict(),
+                    "stiffness_median": r.informed_stiffness()[0].median, "noise_levels": run.sel.nominal.noise[i].to_dict(),
                     "noise_floor": nominal.noise_floor(ch, lay),
                     "gap_train": float(np.sum(run.sel.nominal.residual[sl] ** 2)
                                        / np.sum(problem.deviation[sl] ** 2))})
@@ -420,40 +346,12 @@ class DiagnoseReport:
         return 1 if self.failed or self.diagnosis is None else 0
 
 
-def _read_and_analyze(job):
-    """Read and analyse one trial file: (trial, result, None), or (None, None, one-line reason)."""
+def _read_and_analyze(job) -> dict:
+    """Read and analyse one trial file (a :class:`~limbstiff.batch.runner.BatchJob` whose options
+    hold the protocol and the seed): the trial and its analysis."""
     from ..files import read_trial
-    path, name, protocol, seed = job
-    try:
-        trial = read_trial(path, protocol, name=name)
-        return trial, analyze(trial, protocol, seed=seed), None
-    except LimbstiffError as exc:
-        return None, None, " ".join(str(exc).split())
-
-
-def _analyze_all(files, names, protocol: Protocol, seed: int, jobs: int, progress):
-    """Every trial read and analysed, in ``jobs`` processes, in input order; ``progress(outcome,
-    done, total)`` after each (a :class:`~limbstiff.batch.runner.TrialOutcome`)."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    from ..batch.runner import TrialOutcome
-    work = [(path, name, protocol, seed) for path, name in zip(files, names)]
-    if jobs > 1 and len(work) > 1:
-        pool = ProcessPoolExecutor(max_workers=min(jobs, len(work)))
-        outcomes = pool.map(_read_and_analyze, work)
-    else:
-        pool, outcomes = None, map(_read_and_analyze, work)
-    done = []
-    try:
-        for i, (job, out) in enumerate(zip(work, outcomes), start=1):
-            done.append(out)
-            if progress:
-                progress(TrialOutcome(job[1], str(job[0]), "ok" if out[2] is None else "failed", out[2] or ""),
-                         i, len(work))
-    finally:
-        if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
-    return done
+    trial = read_trial(job.source, job.options["protocol"], name=job.name)
+    return {"trial": trial, "result": analyze(trial, job.options["protocol"], seed=job.options["seed"])}
 
 
 def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-diagnose",
@@ -463,8 +361,9 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
 
     Writes ``OUT/diagnosis.json`` and ``OUT/diagnosis.pdf`` (INTERFACE.md section 5), atomically.
     A trial that cannot be read or analysed is left out with a one-line reason (``failed``);
-    the others are still diagnosed. The trials are read and analysed in ``jobs`` processes;
-    ``progress(outcome, done, total)`` is called after each.
+    the others are still diagnosed. The trials are read and analysed in ``jobs`` processes by the
+    batch's runner (:func:`limbstiff.batch.runner.run_jobs`); ``progress(outcome, done, total)`` is
+    called after each.
 
     Raises
     ------
@@ -472,18 +371,19 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
         When no trial file is found.
     """
     from ..batch.discovery import discover, output_names
+    from ..batch.runner import BatchJob, run_jobs, run_one
     from ..files.outputs import write_json
 
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping)
     files = discover(paths)
     names, _ = output_names(files)
-    trials, results, failed = [], [], []
-    for trial, result, error in _analyze_all(files, names, protocol, seed, jobs, progress):
-        if error is None:
-            trials.append(trial)
-            results.append(result)
-        else:
-            failed.append(error)
+    work = [BatchJob(source=f, name=n, out=Path(out), options={"protocol": protocol, "seed": seed})
+            for f, n in zip(files, names)]
+    outcomes = run_jobs(work, functools.partial(run_one, analyse_and_write=_read_and_analyze), n_jobs=jobs,
+                        progress=progress)
+    done = [o.row for o in outcomes if o.status == "ok"]
+    trials, results = [r["trial"] for r in done], [r["result"] for r in done]
+    failed = [o.error for o in outcomes if o.status != "ok"]
     out = Path(out)
     if not trials:
         return DiagnoseReport(None, out, tuple(failed))
