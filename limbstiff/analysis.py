@@ -20,12 +20,14 @@ from .checks import check_analysis
 from .checks.analysis import sign_hint
 from .errors import TrialError
 from .estimate import estimators, observer
+from .estimate.course_draws import course_deviations
 from .estimate.kalman import NoiseLevels
 from .filtered import Filtered, filter_trial
 from .mechanics.identification import Identification, identify_mechanics
 from .protocol import Protocol
 from .result import DerivedSettings, StiffnessResult, software
 from .trial import Trial
+from .trial_level import COURSE_DRAWS, TrialLevel, background_torque, trial_level
 
 #: Default memory of the observer, as a fraction of the range of motion: by (8) the estimate
 #: forgets its past as exp(−α·path), so 1/α is the path over which it averages the local slope.
@@ -156,6 +158,35 @@ def _coupling(trial: Trial, filtered: Filtered) -> CouplingFit | None:
                            signal_edge_hz=filtered.bandwidth.signal_edge_hz)
 
 
+def _trial_level(filtered: Filtered, estimate: estimators.Estimate, ident: Identification | None,
+                 observable: np.ndarray, *, limb, level: float, seed: int) -> TrialLevel:
+    """The trial-level figures over joint draws of the course at the Kalman model's steps (its
+    posterior, :func:`course_deviations`, plus posterior draws of m and b through the estimate's
+    sensitivity), on the informed steps; ``limb`` maps a one-body stiffness to the limb's."""
+    if estimate.steps is not None:
+        idx, step = estimate.steps.index, estimate.steps.step
+    else:
+        decimation = estimators.kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
+        idx = np.arange(filtered.edge, len(filtered.angle) - filtered.edge, decimation)
+        step = filtered.sample_period * decimation
+    rng = np.random.default_rng([seed, 14])
+    base = estimate.stiffness[idx]
+    draws, sources = np.repeat(base[None, :], COURSE_DRAWS, axis=0), []
+    if estimate.steps is not None:
+        draws += course_deviations(estimate.steps, estimate.fit.noise, draws=COURSE_DRAWS, rng=rng)
+        sources.append("course")
+    if ident is not None and ident.posterior is not None and estimate.sensitivity is not None:
+        mech = ident.posterior.mechanics[rng.integers(0, len(ident.posterior.mechanics), COURSE_DRAWS)]
+        draws += (mech - [ident.inertia.median, ident.damping.median]) @ estimate.sensitivity[:, idx]
+        sources.append("mechanics")
+    if not sources:
+        draws = np.full_like(draws, np.nan)           # no joint uncertainty: no interval claimed
+    informed = observable[idx] if np.count_nonzero(observable[idx]) >= 3 else np.ones(len(idx), dtype=bool)
+    torque = background_torque(filtered.torque[idx], step=step, motion_frequency=filtered.motion_hz)
+    return trial_level(limb(base)[informed], limb(draws)[:, informed], torque[informed], level=level,
+                       sources=tuple(sources))
+
+
 def _limb_stiffness(coupling: CouplingFit | None, stiffness, lo, hi):
     """The limb's stiffness and band when a coupling was found (the one-body estimate is that of
     the springs in series); unchanged otherwise, or when the estimate reaches k_c somewhere."""
@@ -255,14 +286,17 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     half = z * np.sqrt(np.maximum(estimate.variance_with(None if ident is None else ident.covariance), 0.0))
     stiffness, lo, hi = _limb_stiffness(coupling, estimate.stiffness, estimate.stiffness - half,
                                         estimate.stiffness + half)
+    corrected = stiffness is not estimate.stiffness
+    figures = _trial_level(filtered, estimate, ident, observable, level=protocol.ci_level, seed=seed,
+                           limb=coupling.limb_stiffness if corrected else (lambda x: x))
     checks = check_analysis(filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=_check_noise(filtered, estimate, ident), coupling=coupling,
-                            corrected=stiffness is not estimate.stiffness)
+                            corrected=corrected)
     return StiffnessResult(
         trial=trial, variant=filtered.variant, estimator=protocol.estimator, stiffness=stiffness,
         stiffness_lo=lo, stiffness_hi=hi, observable=observable,
         inertia=None if ident is None else ident.inertia, damping=None if ident is None else ident.damping,
         ci_level=protocol.ci_level, seed=seed, settings=protocol.to_dict(), filtered=filtered, derived=derived,
         fit=estimate.fit, identification=ident, checks=checks, warnings=_warnings(trial, ident, observable, scan),
-        corner_scan=scan, coupling=coupling,
+        corner_scan=scan, coupling=coupling, trial_level=figures,
         reference=trial.stiffness_true if reference is None else reference)

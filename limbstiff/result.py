@@ -25,6 +25,7 @@ from .mechanics.identification import Identification
 from .mechanics.posterior import Posterior
 from .provenance import dependency_versions, settings_hash
 from .trial import Trial
+from .trial_level import TrialLevel
 
 __all__ = ["StiffnessResult", "DerivedSettings", "Interval", "software"]
 
@@ -98,6 +99,9 @@ class StiffnessResult:
     warnings : tuple of str
     reference : ndarray, shape (n,), or None
         Reference stiffness (``stiffness_true`` or a calibration), for validation.
+    trial_level : TrialLevel or None
+        The trial's median stiffness, stiffness at its mean torque and slope against torque, each
+        with its interval from the course's joint uncertainty.
     """
 
     trial: Trial
@@ -121,6 +125,7 @@ class StiffnessResult:
     coupling: CouplingFit | None = None
     warnings: tuple[str, ...] = ()
     reference: np.ndarray | None = None
+    trial_level: TrialLevel | None = None
 
     @property
     def posterior(self) -> Posterior | None:
@@ -195,14 +200,18 @@ class StiffnessResult:
         Returns
         -------
         median : Interval
-            Medians of the estimate and of its band's bounds, N·m/rad (N/m).
+            The median of the estimate with its interval from the course's joint uncertainty
+            (:attr:`trial_level`), N·m/rad (N/m); without it, the medians of the band's bounds.
         low, high : float
             Smallest and largest estimate, N·m/rad (N/m).
         """
         obs = informed_samples(self.observable)
         stiffness = self.stiffness[obs]
-        median = Interval(float(np.median(stiffness)), float(np.median(self.stiffness_lo[obs])),
-                          float(np.median(self.stiffness_hi[obs])))
+        if self.trial_level is not None and np.isfinite(self.trial_level.median_stiffness.lo):
+            median = self.trial_level.median_stiffness
+        else:
+            median = Interval(float(np.median(stiffness)), float(np.median(self.stiffness_lo[obs])),
+                              float(np.median(self.stiffness_hi[obs])))
         return median, float(np.min(stiffness)), float(np.max(stiffness))
 
     def summary(self) -> dict:
@@ -224,6 +233,7 @@ class StiffnessResult:
             "inertia": None if self.inertia is None else self.inertia.to_dict(),
             "damping": None if self.damping is None else self.damping.to_dict(),
             "stiffness": stiffness,
+            "trial_level": None if self.trial_level is None else _jsonable(self.trial_level.to_dict()),
             "observable_fraction": self.observable_fraction,
             "verdict": self.verdict,
             "verdict_reasons": [] if self.checks is None else list(self.checks.reasons),

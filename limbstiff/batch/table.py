@@ -17,7 +17,9 @@ from .runner import TrialOutcome
 
 SUMMARY_COLUMNS = ("trial", "status", "verdict", "error", "source", "variant", "stiffness_median", "stiffness_lo",
                    "stiffness_hi", "inertia_median", "damping_median", "observable_fraction", "resumed",
-                   "output")
+                   "output", "inertia_lo", "inertia_hi", "damping_lo", "damping_hi", "stiffness_at_mean_torque",
+                   "stiffness_at_mean_torque_lo", "stiffness_at_mean_torque_hi", "stiffness_torque_slope",
+                   "stiffness_torque_slope_lo", "stiffness_torque_slope_hi")
 #: Prefix of the ``summary.csv`` columns that carry each trial's metadata (``# key: value`` lines).
 METADATA_PREFIX = "meta."
 
@@ -36,8 +38,22 @@ def summary_row(outcome: TrialOutcome) -> dict:
         "observable_fraction": s.get("observable_fraction", ""),
         "resumed": int(outcome.resumed) if outcome.status == "ok" else "",
         "output": s.get("output", ""),
+        **_interval_columns(s),
         **{METADATA_PREFIX + str(k): v for k, v in (s.get("metadata") or {}).items()},
     }
+
+
+def _interval_columns(s: dict) -> dict:
+    """The ``_lo``/``_hi`` columns: inertia and damping, the trial-level figures (blank when absent)."""
+    out = {}
+    for name in ("inertia", "damping"):
+        iv = s.get(name) or {}
+        out.update({f"{name}_lo": iv.get("lo", ""), f"{name}_hi": iv.get("hi", "")})
+    level = s.get("trial_level") or {}
+    for name in ("stiffness_at_mean_torque", "stiffness_torque_slope"):
+        iv = level.get(name) or {}
+        out.update({name: iv.get("median", ""), f"{name}_lo": iv.get("lo", ""), f"{name}_hi": iv.get("hi", "")})
+    return out
 
 
 def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome]) -> None:

@@ -19,7 +19,7 @@ import numpy as np
 from ..filtered import Filtered
 from ..protocol import ESTIMATORS  # noqa: F401  (the names, defined once with the protocol)
 from . import observer
-from .kalman import NoiseLevels, kalman_stiffness
+from .kalman import ModelSteps, NoiseLevels, kalman_stiffness
 
 #: Kalman steps per period of the low-pass corner: 1.25 puts the step rate at 2.5× the corner,
 #: just above the Nyquist rate of the filtered band, so that the filtered noise is close to
@@ -71,12 +71,15 @@ class Estimate:
         ∂σ̂/∂m and ∂σ̂/∂b (external variant): the estimate is affine in (m, b), so
         σ̂(m', b') = σ̂ + (m' − m)·sensitivity[0] + (b' − b)·sensitivity[1] exactly.
     fit : EstimatorFit
+    steps : ModelSteps or None
+        The Kalman model's data at its steps (``kalman``), for joint draws of the course.
     """
 
     stiffness: np.ndarray
     variance: np.ndarray
     sensitivity: np.ndarray | None = None
     fit: EstimatorFit = EstimatorFit()
+    steps: ModelSteps | None = None
 
     def variance_with(self, covariance: np.ndarray | None) -> np.ndarray:
         """Total variance once a covariance (2, 2) of (m, b) is carried through the sensitivity."""
@@ -104,8 +107,8 @@ def kalman(filtered: Filtered, *, inertia: float | None = None, damping: float |
     fit = kalman_stiffness(filtered.angle, measured, sample_period=filtered.sample_period, decimation=decimation,
                            noise=noise, regressors=regressors, motion_frequency=filtered.motion_hz,
                            scale_from=filtered.torque, edge=filtered.edge)
-    return Estimate(fit.stiffness, fit.variance, -fit.responses if external else None, 
-                    EstimatorFit(noise=fit.noise, decimation=decimation, loglik=fit.loglik))
+    return Estimate(fit.stiffness, fit.variance, -fit.responses if external else None,
+                    EstimatorFit(noise=fit.noise, decimation=decimation, loglik=fit.loglik), fit.steps)
 
 
 def _observer_pass(filtered, drive, gain, threshold, discretisation, reverse):

@@ -142,6 +142,9 @@ class KalmanStiffness:
         The smoothed stiffness the same filter gives when fed each extra regressor instead of
         z (zero initial state): since the smoother is linear in z, these are the derivatives
         of the stiffness with respect to the coefficients of those regressors in z.
+    steps : ModelSteps
+        The data at the filter's steps (for joint draws of the course,
+        :mod:`limbstiff.estimate.course_draws`).
     """
 
     stiffness: np.ndarray
@@ -150,6 +153,7 @@ class KalmanStiffness:
     loglik: float
     decimation: int
     responses: np.ndarray
+    steps: "ModelSteps"
 
 
 def initial_slopes(angle: np.ndarray, channels: np.ndarray) -> np.ndarray:
@@ -345,13 +349,13 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
         r = np.asarray(reg)[idx]
         resp = kalman_smoother(increments, r, noise, step=step, initial_mean=_initial_mean(y, r), initial_cov=cov0,
                                loglik=False)
-        responses[j] = back(_at_steps(resp.mean[:, 1]))
-    return KalmanStiffness(stiffness=back(_at_steps(out.mean[:, 1])),
-                           variance=back(_at_steps(np.maximum(out.cov[:, 2], 0.0))),
-                           noise=noise, loglik=out.loglik, decimation=decimation, responses=responses)
+        responses[j] = back(at_steps(resp.mean[:, 1]))
+    return KalmanStiffness(stiffness=back(at_steps(out.mean[:, 1])),
+                           variance=back(at_steps(np.maximum(out.cov[:, 2], 0.0))),
+                           noise=noise, loglik=out.loglik, decimation=decimation, responses=responses, steps=st)
 
 
-def _at_steps(values: np.ndarray) -> np.ndarray:
+def at_steps(values: np.ndarray) -> np.ndarray:
     """The stiffness state at the filter's steps, from its values between them.
 
     In s[k] = s[k−1] + σ[k−1]·(y[k] − y[k−1]) the state σ[k−1] is the slope over the step from

@@ -8,6 +8,7 @@ page and the model checks compare them). Pure numpy (emcee for the sampling): no
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,10 +19,14 @@ from ..estimate.kalman import NoiseLevels
 from ..filtered import Filtered
 from ..interval import Interval
 from ..protocol import Protocol
+from .angle_error import NO_EFFECT, AngleErrorEffect, angle_error_effect
 from .least_squares import LeastSquaresFit, least_squares
-from .likelihood import MechanicsFit, MechanicsProblem, kalman_mechanics
+from .likelihood import MechanicsFit, MechanicsProblem, kalman_mechanics, robust_covariance
 from .posterior import Posterior, sample
 
+#: A quantisation shift of (m, b) larger than this share is not applied (said in the warnings):
+#: the simulation measures a small perturbation (on the benchmark's encoders it was under 1 %).
+MAX_ANGLE_ERROR_SHIFT = 0.1
 #: Identification windows, in periods of the typical motion frequency.
 IDENTIFY_PERIODS = 4.0
 
@@ -48,6 +53,9 @@ class Identification:
     warnings : tuple of str
     expected_inertia : tuple of float or None
         The range of m the protocol expects for the set-up (kg·m²), when it gives one.
+    angle_error : AngleErrorEffect
+        What the angle's quantisation or noise does to (m, b): its shift is taken off the
+        posterior draws and its spread added to them.
     """
 
     method: str
@@ -61,6 +69,7 @@ class Identification:
     decimation: int | None = None
     warnings: tuple[str, ...] = field(default=())
     expected_inertia: tuple[float, float] | None = None
+    angle_error: AngleErrorEffect = NO_EFFECT
 
     @property
     def given(self) -> bool:
@@ -90,6 +99,7 @@ class Identification:
                 "maximum_likelihood": {"inertia": ml.inertia, "damping": ml.damping,
                                        "noise_levels": ml.noise.to_dict(), "loglik": ml.loglik},
                 "noise_levels": self.noise_levels.to_dict(), "decimation": self.decimation,
+                "angle_error": self.angle_error.to_dict(),
                 "mcmc": self.posterior.diagnostics.to_dict(), "warnings": list(self.warnings)}
 
 
@@ -131,6 +141,9 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     fit = kalman_mechanics(problem, guess=guess)
     post = sample(problem, start=fit, inertia_prior=protocol.inertia_prior, damping_prior=protocol.damping_prior,
                   rng=rng, seed=seed)
+    post = _with_robust_spread(post, problem, fit, filtered.motion_hz)
+    effect = _angle_error(filtered, problem, fit, guess, decimation, rng)
+    post = _with_angle_error(post, effect, rng)
     draws = post.mechanics.copy()
     out = []
     for j, (name, given) in enumerate((("inertia", m), ("damping", b))):
@@ -145,4 +158,52 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
         out.append(iv)
     return Identification("kalman+emcee", out[0], out[1], np.cov(draws.T), least_squares=guess,
                           maximum_likelihood=fit, posterior=post, noise_levels=post.noise_levels(),
-                          decimation=decimation, warnings=tuple(post.warnings))
+                          decimation=decimation, warnings=tuple(post.warnings), angle_error=effect)
+
+
+def _angle_error(filtered: Filtered, problem: MechanicsProblem, fit: MechanicsFit, guess: LeastSquaresFit,
+                 decimation: int, rng: np.random.Generator) -> AngleErrorEffect:
+    """:func:`angle_error_effect` with (m, b) refitted at the maximum-likelihood noise levels."""
+    logs = np.log([fit.noise.measurement, fit.noise.torque_walk, fit.noise.stiffness_walk])
+
+    def refit(angle):
+        again = MechanicsProblem.build(angle[0], angle[1], angle[2], filtered.torque,
+                                       sample_period=filtered.sample_period, decimation=decimation,
+                                       motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge)
+        return again.conditional(logs)[1]
+    return angle_error_effect(filtered, refit, rng=rng)
+
+
+def _with_robust_spread(post: Posterior, problem: MechanicsProblem, fit: MechanicsFit,
+                        motion_frequency: float) -> Posterior:
+    """The posterior draws of (m, b) spread as the sandwich covariance says instead of the model's
+    (:func:`robust_covariance` at the maximum-likelihood noise levels): about their mean, mapped by
+    T = L_sandwich·L_model⁻¹ (Cholesky factors), which takes one covariance to the other."""
+    logs = np.log([fit.noise.measurement, fit.noise.torque_walk, fit.noise.stiffness_walk])
+    model, sandwich = robust_covariance(problem, logs, np.array([fit.inertia, fit.damping]),
+                                        motion_frequency=motion_frequency)
+    try:
+        t = np.linalg.cholesky(sandwich) @ np.linalg.inv(np.linalg.cholesky(model))
+    except np.linalg.LinAlgError:
+        return post
+    draws = post.draws.copy()
+    centre = draws[:, :2].mean(axis=0)
+    draws[:, :2] = centre + (draws[:, :2] - centre) @ t.T
+    return dataclasses.replace(post, draws=draws)
+
+
+def _with_angle_error(post: Posterior, effect: AngleErrorEffect, rng: np.random.Generator) -> Posterior:
+    """The posterior draws of (m, b) less the angle error's shift, plus its spread (independent:
+    the torque's noise and the angle's add)."""
+    if effect.draws == 0 or not np.all(np.isfinite(effect.covariance)):
+        return post
+    centre = np.abs(np.median(post.draws[:, :2], axis=0))
+    if np.any(np.abs(effect.shift) > MAX_ANGLE_ERROR_SHIFT * centre):
+        return dataclasses.replace(post, warnings=post.warnings + (
+            f"the angle's quantisation would move inertia and damping by {effect.shift[0]:.3g} and "
+            f"{effect.shift[1]:.3g}, more than {100 * MAX_ANGLE_ERROR_SHIFT:.0f} %: not a small error, not "
+            "corrected (a finer encoder or a given inertia and damping)",))
+    draws = post.draws.copy()
+    spread = rng.multivariate_normal(np.zeros(2), effect.covariance, size=len(draws), method="eigh")
+    draws[:, :2] += spread - effect.shift
+    return dataclasses.replace(post, draws=draws)

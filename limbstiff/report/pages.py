@@ -82,7 +82,7 @@ def _summary_rows(result) -> list[tuple[str, str]]:
         ("Source", trial.source or "(in memory)"),
         ("Variant / estimator", f"{result.variant} variant / {result.estimator} estimator"),
         ("Sampling", f"{trial.fs:.4g} Hz, {trial.n_samples} samples, {trial.duration:.4g} s"),
-        ("Median stiffness", fmt_interval(median, u["stiffness"], ci)),
+        *_trial_level_rows(result, median),
         ("Stiffness range", f"{fmt(low)} to {fmt(high, u['stiffness'])} "
                             + ("(informed samples)" if result.observable.any() else "(all samples: none is informed)")),
     ]
@@ -93,6 +93,26 @@ def _summary_rows(result) -> list[tuple[str, str]]:
         rows.append(("Error vs reference", f"median {100 * err['median']:.2f} %, 90th percentile "
                                            f"{100 * err['p90']:.2f} %, band covers it {100 * err['coverage']:.0f} %"))
     return rows
+
+
+def _trial_level_rows(result, median) -> list[tuple[str, str]]:
+    """Page 1's trial-level figures, each with words saying what its interval is."""
+    u, ci, level = result.trial.units, result.ci_level, result.trial_level
+    if level is None or not np.isfinite(median.lo):
+        return [("Median stiffness", fmt_interval(median, u["stiffness"], ci)
+                 + " — bounds are the medians of the per-sample band (no joint uncertainty for this estimator)")]
+    what = " and ".join({"course": "the stiffness course", "mechanics": "inertia and damping"}[s]
+                        for s in level.sources)
+    slope_unit = f"({u['stiffness']})/({u['torque']})" if "torque" in u else ""
+    return [
+        ("Median stiffness", fmt_interval(median, u["stiffness"], ci)
+         + f": the median over the informed samples; the interval is that of this median, from the joint "
+           f"uncertainty of {what}, not the spread of the stiffness over the trial (see the range below)"),
+        ("Stiffness at mean torque", fmt_interval(level.stiffness_at_mean_torque, u["stiffness"], ci)
+         + ": the line of stiffness against background torque, at the trial's mean background torque"),
+        ("Stiffness vs torque", fmt_interval(level.stiffness_torque_slope, slope_unit, ci)
+         + ": that line's slope, the change of stiffness per unit of background torque"),
+    ]
 
 
 def _mechanics_text(result, name: str) -> str:

@@ -1,0 +1,60 @@
+"""Joint posterior draws of the stiffness course: the simulation smoother of the Kalman model.
+
+The smoother gives each sample's posterior mean and variance, but a figure of the whole trial —
+the median stiffness, its slope against torque — needs the course's joint posterior, whose
+neighbouring samples share their errors. Durbin & Koopman's (2002, Biometrika 89:603) simulation
+smoother draws from it with the smoother itself: simulate states x⁺ and measurements z⁺ from the
+model, smooth z⁺, and x̂ + (x⁺ − x̂⁺) is a draw of the states given the data. The gains do not
+depend on the data, so each draw is one filter and smoother pass. Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .kalman import ModelSteps, NoiseLevels, kalman_smoother
+
+
+def course_deviations(steps: ModelSteps, noise: NoiseLevels, *, draws: int, rng: np.random.Generator,
+                      aligned: bool = True) -> np.ndarray:
+    """Draws of the stiffness course's posterior error, at the model's steps.
+
+    Parameters
+    ----------
+    steps : ModelSteps
+        The data the estimate was smoothed from (its initial mean and covariance).
+    noise : NoiseLevels
+        The noise levels it was smoothed with.
+    draws : int
+    rng : numpy.random.Generator
+    aligned : bool
+        Aligned like the estimate (:func:`kalman.at_steps`), or the state σ[k] itself.
+
+    Returns
+    -------
+    ndarray, shape (draws, m), N·m/rad (N/m)
+        x⁺ − x̂⁺ of the stiffness: the estimate plus a row is a draw of the course from its
+        posterior; unaligned, each column's variance is the smoother's posterior variance there.
+    """
+    n, dt = len(steps.measured), steps.step
+    p11, p12, p22 = steps.initial_cov
+    start = np.asarray(steps.initial_mean) + rng.standard_normal((draws, 2)) @ np.linalg.cholesky(
+        np.array([[p11, p12], [p12, p22]]) + 1e-300 * np.eye(2)).T
+    w_k = rng.standard_normal((draws, n)) * np.sqrt(noise.stiffness_walk * dt)
+    w_s = rng.standard_normal((draws, n)) * np.sqrt(noise.torque_walk * dt)
+    w_k[:, 0] = w_s[:, 0] = 0.0
+    stiffness = start[:, 1:] + np.cumsum(w_k, axis=1)
+    change = np.zeros((draws, n))
+    change[:, 1:] = stiffness[:, :-1] * steps.increments[1:] + w_s[:, 1:]
+    measured = start[:, :1] + np.cumsum(change, axis=1) + rng.standard_normal((draws, n)) * np.sqrt(noise.measurement)
+    out = np.empty((draws, n))
+    for j in range(draws):
+        smoothed = kalman_smoother(steps.increments, measured[j], noise, step=dt,
+                                   initial_mean=steps.initial_mean, initial_cov=steps.initial_cov, loglik=False)
+        out[j] = stiffness[j] - smoothed.mean[:, 1]
+    return at_steps_rows(out) if aligned else out
+
+
+def at_steps_rows(values: np.ndarray) -> np.ndarray:
+    """:func:`kalman.at_steps` along each row of (k, m)."""
+    return np.column_stack([values[:, :1], 0.5 * (values[:, :-1] + values[:, 1:])])

@@ -1,0 +1,93 @@
+"""Calibrated uncertainty: exact answers for the pieces, a small simulation-based calibration for the whole.
+
+The large study (200 trials per run, rank statistics per joint) is ``benchmarks/identify.py``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from limbstiff.estimate import kalman
+from limbstiff.estimate.course_draws import course_deviations
+from limbstiff.mechanics.likelihood import long_run_covariance
+from limbstiff.trial_level import trial_level
+
+
+def test_course_draws_have_the_smoothers_posterior_variance():
+    # Durbin & Koopman's simulation smoother draws from the smoothed posterior: the variance over
+    # draws at each step must be the smoother's own (the states themselves, not aligned). 2000 draws: a variance's relative standard error is √(2/2000) = 3 %; the median over steps
+    # is within ±10 % unless the draws are wrong (too tight without the walk, too wide without the data).
+    rng = np.random.default_rng(11)
+    n, step = 400, 0.02
+    t = np.arange(n) * step
+    y = 0.1 * np.sin(2 * np.pi * 0.9 * t) + 0.04 * np.sin(2 * np.pi * 2.3 * t)
+    z = np.cumsum(np.r_[0, 30 * np.diff(y)]) + rng.normal(0, 0.05, n)
+    st = kalman.model_steps(y, z, sample_period=step, decimation=1, edge=0)
+    noise = kalman.NoiseLevels(0.05 ** 2, 1e-4, 20.0)
+    smoothed = kalman.kalman_smoother(st.increments, st.measured, noise, step=step,
+                                      initial_mean=st.initial_mean, initial_cov=st.initial_cov)
+    dev = course_deviations(st, noise, draws=2000, rng=np.random.default_rng(3), aligned=False)
+    ratio = dev.var(axis=0) / smoothed.cov[:, 2]
+    assert 0.9 < np.median(ratio) < 1.1
+    assert abs(np.median(dev.mean(axis=0) / np.sqrt(dev.var(axis=0)))) < 0.1     # centred on the estimate
+
+
+def test_long_run_covariance_of_an_ma1_series():
+    # scores x_k = e_k + e_{k−1} (MA(1), e white of unit variance): the variance of their sum is
+    # n·(1 + 1 + 2·1) = 4n exactly in the limit; with Bartlett weights at 20 lags the lag-1 term is
+    # weighted by 1 − 1/21, so the expectation is n·(2 + 2·20/21). 20 000 terms: ±3 % holds it.
+    e = np.random.default_rng(2).standard_normal(20_001)
+    x = (e[1:] + e[:-1])[:, None]
+    expected = len(x) * (2 + 2 * 20 / 21)
+    assert long_run_covariance(x, 20)[0, 0] == pytest.approx(expected, rel=0.03)
+    assert long_run_covariance(x, 0)[0, 0] == pytest.approx(2 * len(x), rel=0.03)   # no lags: the white formula
+
+
+def test_trial_level_intervals_cover_the_median_of_known_draws():
+    # draws of a constant course 10 + a shared offset N(0, 1): the median's 90 % interval is
+    # 10 ± 1.645 (to sampling error of the 5 %/95 % quantiles of 4000 draws, ±0.1); the slope
+    # against a torque that carries no information about the offset is 0 with a zero-width interval
+    rng = np.random.default_rng(0)
+    m = 50
+    draws = 10 + rng.standard_normal((4000, 1)) + np.zeros((1, m))
+    torque = np.linspace(0, 5, m)
+    level = trial_level(np.full(m, 10.0), draws, torque, level=0.9, sources=("course",))
+    assert level.median_stiffness.lo == pytest.approx(10 - 1.645, abs=0.1)
+    assert level.median_stiffness.hi == pytest.approx(10 + 1.645, abs=0.1)
+    assert level.stiffness_torque_slope.median == pytest.approx(0.0, abs=1e-12)
+    assert level.stiffness_torque_slope.hi - level.stiffness_torque_slope.lo == pytest.approx(0.0, abs=1e-9)
+
+
+@pytest.mark.xfail(strict=True, reason="known miss of issue 14: b is identified ~0.6 % (2.6 posterior sd) low "
+                   "on stiffness ramps — the ramp's torque σ̇·deflection passes for damping; the model term "
+                   "that removes it (closing note of issue 14) breaks angle-driven springs until the "
+                   "likelihood chooses between the two. Strict: this test fails the suite once it passes.")
+def test_simulation_based_calibration_of_inertia_and_damping():
+    # SBC in small (Talts et al. 2018, arXiv:1804.06788): m, b, the stiffness course, noise and encoder
+    # drawn at random as in benchmarks/identify.py (its draw_trial, 10 s instead of 20), simulated by
+    # the physical simulator (not the Kalman model), identified. The truth's rank among the posterior
+    # draws is uniform when the posterior is calibrated: over 18 trials × 2 parameters the share inside
+    # the 90 % interval must lie in 0.72–0.99 (binomial: 36 intervals at 0.9 fall outside with
+    # probability < 2 %; before this work the share was about 0.6) and the mean rank in 0.35–0.65
+    # (a bias shows as ranks piled at one end: before, b's ranks sat near 0).
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from identify import draw_trial
+
+    from limbstiff.analysis import identify_trial
+    from limbstiff.protocol import Protocol
+    from limbstiff.simulate import simulate
+    ranks, inside = [], []
+    for i in range(18):
+        joint, params, seed = draw_trial(i)
+        params = dict(params, duration=10.0)
+        ident = identify_trial(simulate(joint, seed=seed, params=params), Protocol(), seed=seed)
+        for j, name in enumerate(("inertia", "damping")):
+            draws, truth = ident.posterior.mechanics[:, j], params[name]
+            ranks.append(float(np.mean(draws < truth)))
+            iv = getattr(ident, name)
+            inside.append(iv.lo <= truth <= iv.hi)
+    assert 0.72 <= np.mean(inside) <= 0.99
+    assert 0.35 <= np.mean(ranks) <= 0.65
