@@ -191,7 +191,7 @@ def bound_margins(filtered: Filtered, *, inertia: float, damping: float, noise: 
     measurement R, torque walk Q_s, stiffness walk Q_σ (:func:`~limbstiff.estimate.kalman.noise_bounds`)."""
     st = _steps(filtered, inertia, damping)
     bounds = np.array(noise_bounds(float(np.var(st.measured)), float(np.sqrt(st.initial_cov[2])), filtered.motion_hz))
-    logs = np.log([noise.measurement, noise.torque_walk, noise.stiffness_walk])
+    logs = noise.logs()
     return bounds[:, 1] - logs
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kalman import ModelSteps, NoiseLevels, kalman_smoother
+from .kalman import ModelSteps, NoiseLevels, at_steps, kalman_smoother
 
 
 def course_deviations(steps: ModelSteps, noise: NoiseLevels, *, draws: int, rng: np.random.Generator,
@@ -52,9 +52,4 @@ def course_deviations(steps: ModelSteps, noise: NoiseLevels, *, draws: int, rng:
         smoothed = kalman_smoother(steps.increments, measured[j], noise, step=dt,
                                    initial_mean=steps.initial_mean, initial_cov=steps.initial_cov, loglik=False)
         out[j] = stiffness[j] - smoothed.mean[:, 1]
-    return at_steps_rows(out) if aligned else out
-
-
-def at_steps_rows(values: np.ndarray) -> np.ndarray:
-    """:func:`kalman.at_steps` along each row of (k, m)."""
-    return np.column_stack([values[:, :1], 0.5 * (values[:, :-1] + values[:, 1:])])
+    return at_steps(out) if aligned else out

@@ -46,6 +46,10 @@ class NoiseLevels:
         return {"measurement": self.measurement, "torque_walk": self.torque_walk,
                 "stiffness_walk": self.stiffness_walk}
 
+    def logs(self) -> np.ndarray:
+        """ln (R, Q_s, Q_σ), shape (3,): the coordinates the noise fits and the sampler work in."""
+        return np.log([self.measurement, self.torque_walk, self.stiffness_walk])
+
 
 def _args(increments, measured, noise, step, initial_mean, initial_cov):
     return (np.ascontiguousarray(increments, dtype=float), np.ascontiguousarray(measured, dtype=float),
@@ -248,7 +252,7 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
     noise : NoiseLevels
     loglik : float
     """
-    x0 = np.log([guess.measurement, guess.torque_walk, guess.stiffness_walk])
+    x0 = guess.logs()
     bounds = noise_bounds(float(np.var(measured)), float(np.sqrt(initial_cov[2])), motion_frequency)
 
     def loglik(x):
@@ -356,7 +360,8 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
 
 
 def at_steps(values: np.ndarray) -> np.ndarray:
-    """The stiffness state at the filter's steps, from its values between them.
+    """The stiffness state at the filter's steps, from its values between them (along the last
+    axis of ``values``, shape (..., m)).
 
     In s[k] = s[k−1] + σ[k−1]·(y[k] − y[k−1]) the state σ[k−1] is the slope over the step from
     k−1 to k: it belongs to the step's middle, half a step before k. The value at step k is
@@ -367,8 +372,8 @@ def at_steps(values: np.ndarray) -> np.ndarray:
     estimate stays exactly affine in m and b.
     """
     out = np.empty_like(values)
-    out[0] = values[0]
-    out[1:] = 0.5 * (values[:-1] + values[1:])
+    out[..., 0] = values[..., 0]
+    out[..., 1:] = 0.5 * (values[..., :-1] + values[..., 1:])
     return out
 
 

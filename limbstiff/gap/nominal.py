@@ -225,7 +225,7 @@ def fit_noise(steps: Steps, *, start: NoiseLevels, motion_hz: float) -> NoiseLev
     z = steps.channels[0]
     bounds = noise_bounds(float(np.var(z - z.mean())), float(np.sqrt(steps._prepared[4])), motion_hz)
     lo, hi = np.array(bounds).T
-    x0 = np.clip(np.log([start.measurement, start.torque_walk, start.stiffness_walk]), lo, hi)
+    x0 = np.clip(start.logs(), lo, hi)
 
     def loglik(x):
         value = steps.marginal_loglik(NoiseLevels(*np.exp(x)))

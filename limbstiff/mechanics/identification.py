@@ -164,7 +164,7 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
 def _angle_error(filtered: Filtered, problem: MechanicsProblem, fit: MechanicsFit, guess: LeastSquaresFit,
                  decimation: int, rng: np.random.Generator) -> AngleErrorEffect:
     """:func:`angle_error_effect` with (m, b) refitted at the maximum-likelihood noise levels."""
-    logs = np.log([fit.noise.measurement, fit.noise.torque_walk, fit.noise.stiffness_walk])
+    logs = fit.noise.logs()
 
     def refit(angle):
         again = MechanicsProblem.build(angle[0], angle[1], angle[2], filtered.torque,
@@ -179,7 +179,7 @@ def _with_robust_spread(post: Posterior, problem: MechanicsProblem, fit: Mechani
     """The posterior draws of (m, b) spread as the sandwich covariance says instead of the model's
     (:func:`robust_covariance` at the maximum-likelihood noise levels): about their mean, mapped by
     T = L_sandwich·L_model⁻¹ (Cholesky factors), which takes one covariance to the other."""
-    logs = np.log([fit.noise.measurement, fit.noise.torque_walk, fit.noise.stiffness_walk])
+    logs = fit.noise.logs()
     model, sandwich = robust_covariance(problem, logs, np.array([fit.inertia, fit.damping]),
                                         motion_frequency=motion_frequency)
     try:

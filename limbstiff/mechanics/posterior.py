@@ -211,7 +211,7 @@ def _run_chain(problem, start, rng: np.random.Generator):
 
     # inside the bounds: walkers clipped onto a bound together would coincide, and emcee's snooker
     # move divides by their distance (NaN proposals)
-    centre = np.clip(np.log([start.noise.measurement, start.noise.torque_walk, start.noise.stiffness_walk]),
+    centre = np.clip(start.noise.logs(),
                      lo + START_MARGIN, hi - START_MARGIN)
     p0 = np.clip(centre + 0.05 * rng.standard_normal((N_WALKERS, 3)), lo, hi)
     # differential-evolution moves: integrated autocorrelation times of ~15 steps here against

@@ -75,7 +75,7 @@ def _verdict_box(fig, result, y: float) -> float:
 
 def _summary_rows(result) -> list[tuple[str, str]]:
     """(label, text) of each line at the top of the summary page."""
-    trial, u, ci = result.trial, result.trial.units, result.ci_level
+    trial, u = result.trial, result.trial.units
     median, low, high = result.informed_stiffness()
     rows = [
         ("Trial", trial.name),
