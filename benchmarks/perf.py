@@ -79,8 +79,8 @@ def passes() -> tuple[list[tuple[str, float]], float, dict]:
     out.append(("  the recursion alone, NumPy blocked scan", best(lambda: scan.linear_recursion(a, c))))
     z = sig.elastic_torque(m, b)
     d = np.diff(sig.angle, prepend=sig.angle[0])
-    noise = kalman_model.NoiseLevels(1e-2, 1e-1, 1.0)
-    kw = dict(step=ts, initial_mean=np.array([z[0], 60.0]), initial_cov=np.array([1.0, 0.0, 1e4]))
+    noise = kalman_model.NoiseLevels(1e-2, 1e-1, 1.0, 1.0)
+    kw = dict(step=ts, deflection=kalman_model.deflection(sig.angle, step=ts, motion_frequency=sig.motion_hz), initial_mean=np.array([z[0], 60.0]), initial_cov=np.array([1.0, 0.0, 1e4]))
 
     def kalman(loglik):
         return kalman_model.kalman_smoother(d, z, noise, loglik=loglik, **kw)

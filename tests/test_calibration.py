@@ -23,9 +23,9 @@ def test_course_draws_have_the_smoothers_posterior_variance():
     t = np.arange(n) * step
     y = 0.1 * np.sin(2 * np.pi * 0.9 * t) + 0.04 * np.sin(2 * np.pi * 2.3 * t)
     z = np.cumsum(np.r_[0, 30 * np.diff(y)]) + rng.normal(0, 0.05, n)
-    st = kalman.model_steps(y, z, sample_period=step, decimation=1, edge=0)
-    noise = kalman.NoiseLevels(0.05 ** 2, 1e-4, 20.0)
-    smoothed = kalman.kalman_smoother(st.increments, st.measured, noise, step=step,
+    st = kalman.model_steps(y, z, sample_period=step, decimation=1, edge=0, motion_frequency=0.9)
+    noise = kalman.NoiseLevels(0.05 ** 2, 1e-4, 20.0, 10.0)        # both kinds of stiffness walk
+    smoothed = kalman.kalman_smoother(st.increments, st.measured, noise, step=step, deflection=st.deflection,
                                       initial_mean=st.initial_mean, initial_cov=st.initial_cov)
     dev = course_deviations(st, noise, draws=2000, rng=np.random.default_rng(3), aligned=False)
     ratio = dev.var(axis=0) / smoothed.cov[:, 2]
@@ -59,10 +59,6 @@ def test_trial_level_intervals_cover_the_median_of_known_draws():
     assert level.stiffness_torque_slope.hi - level.stiffness_torque_slope.lo == pytest.approx(0.0, abs=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason="known miss of issue 14: b is identified ~0.6 % (2.6 posterior sd) low "
-                   "on stiffness ramps — the ramp's torque σ̇·deflection passes for damping; the model term "
-                   "that removes it (closing note of issue 14) breaks angle-driven springs until the "
-                   "likelihood chooses between the two. Strict: this test fails the suite once it passes.")
 def test_simulation_based_calibration_of_inertia_and_damping():
     # SBC in small (Talts et al. 2018, arXiv:1804.06788): m, b, the stiffness course, noise and encoder
     # drawn at random as in benchmarks/identify.py (its draw_trial, 10 s instead of 20), simulated by

@@ -99,10 +99,12 @@ def test_mechanics_disagreement_fails():
     assert "mechanics_agreement" in _failed(result) and result.verdict != OK
 
 
-def test_noisy_torque_fails_band_width_and_negative_share():
-    # torque noise of 1 N·m on an elbow whose torque spreads ~1 N·m: nothing is pinned down
+def test_noisy_torque_fails_band_width_and_band_reaches_zero():
+    # torque noise of 1 N·m on an elbow whose torque spreads ~1 N·m: nothing is pinned down; the
+    # band reaches zero (its width is tens of times the stiffness), and the estimate may or may not
+    # stray below zero (it did with the stiffness walk of one kind, not with two)
     result = limbstiff.analyze(simulate("elbow", seed=21, params={"duration": 12.0, "torque_noise": 1.0}), seed=0)
-    assert {"band_width_relative", "negative_stiffness_share"} <= _failed(result)
+    assert {"band_width_relative", "band_excludes_zero"} <= _failed(result)
     assert result.verdict == UNRELIABLE
 
 
@@ -170,10 +172,12 @@ def test_summary_carries_verdict_and_checks(elbow_result):
 
 def test_a_reflex_on_a_platform_is_flagged():
     # nearly noise-free torque, but the model misses 4-5 % of it out of sample: the residual's
-    # structure is judged (stiffness 25-42 % off, measured)
+    # structure is judged. The stiffness is off (measured: median 25-42 % with one kind of stiffness
+    # walk; 9.5 %, 90th percentile 128 %, with the coupled walk of issue 14 taking up part of the
+    # reflex torque), so the precondition is only that it is clearly off
     result = limbstiff.analyze(simulate("ankle-platform", seed=2, params={"duration": 20.0}, effect="reflex"),
                                seed=2)
-    assert result.reference_error()["median"] > 0.2
+    assert result.reference_error()["median"] > 0.05
     assert result.verdict != OK and "residual_whiteness" in _failed(result)
 
 
@@ -187,9 +191,10 @@ def test_walkers_starting_on_a_bound_do_not_fail():
 @pytest.mark.parametrize("spring", [2, 3])
 def test_steep_exponential_springs_the_estimator_misses_are_flagged(spring):
     # A known failure, kept visible: the paper's springs 2 and 3 (stiffness ×25 within a cycle)
-    # outrun the stiffness walk's bound (σ²·f_motion with the secant stiffness), and the default
-    # estimate is 75–350 % off (measured; a bound 100× higher gives 0.02 % on spring 2). Until
-    # the bound follows the local slope, the verdict must say so (the bundled example is spring 2).
+    # outrun the stiffness walk's bound (σ²·f_motion). With the secant stiffness as σ the estimate
+    # was 75–350 % off; with the steepest slope over 16 windows (kalman.initial_cov) 38 % and 109 %
+    # (measured; a bound 100× higher gives 0.02 % on spring 2): the windows are longer than the
+    # cycle the stiffness changes within. The verdict must say so (the bundled example is spring 2).
     result = limbstiff.analyze(simulate("paper-exp-spring", params={"spring": spring, "duration": 10.0}), seed=0)
-    assert result.reference_error()["median"] > 0.5
+    assert result.reference_error()["median"] > 0.3
     assert result.verdict != OK and "noise_levels_at_bounds" in _failed(result)

@@ -297,7 +297,7 @@ def _steps(seed=4, channels=3, n=400):
     y = 0.1 * np.sin(2 * np.pi * 0.9 * t) + 0.05 * np.sin(2 * np.pi * 2.3 * t)
     torque = 40 * y + rng.normal(0, 0.2, n)
     chans = np.vstack([torque] + [rng.normal(0, 1, n) for _ in range(channels - 1)])
-    return Steps(angle=y, channels=chans, scale=torque, step=0.02)
+    return Steps(angle=y, channels=chans, scale=torque, step=0.02, deflection=y - y.mean())
 
 
 def test_innovations_are_linear_in_the_channels():
@@ -306,10 +306,11 @@ def test_innovations_are_linear_in_the_channels():
     from limbstiff.estimate.kalman import NoiseLevels
     from limbstiff.gap.nominal import Steps
     st = _steps()
-    noise = NoiseLevels(0.05, 0.01, 30.0)
+    noise = NoiseLevels(0.05, 0.01, 30.0, 10.0)
     e, var = st.innovations(noise)
     w = np.array([1.0, -0.3, 0.7])
-    combined = Steps(angle=st.angle, channels=(w @ st.channels)[None], scale=st.scale, step=st.step)
+    combined = Steps(angle=st.angle, channels=(w @ st.channels)[None], scale=st.scale, step=st.step,
+                     deflection=st.deflection)
     e1, var1 = combined.innovations(noise)
     np.testing.assert_allclose(e1[0], w @ e, atol=1e-9)
     np.testing.assert_allclose(var1, var)
@@ -321,7 +322,7 @@ def test_marginal_likelihood_matches_the_identification():
     from limbstiff.estimate import kernels
     from limbstiff.estimate.kalman import NoiseLevels
     st = _steps()
-    noise = NoiseLevels(0.05, 0.01, 30.0)
+    noise = NoiseLevels(0.05, 0.01, 30.0, 10.0)
     args = st._pass_args(noise)
     expected = kernels.marginal_loglik(*args)[0]
     assert st.marginal_loglik(noise) == pytest.approx(expected, rel=1e-10)

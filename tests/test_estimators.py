@@ -94,18 +94,19 @@ def test_compiled_kernels_equal_the_reference():
     a, c = rng.uniform(0.5, 1.0, n), rng.standard_normal(n)
     np.testing.assert_allclose(kernels.linear_recursion(a, c, 0.3),
                                kernels.linear_recursion.py_func(a, c, 0.3), rtol=1e-12)
-    d, z, acc, vel = 0.01 * rng.standard_normal((4, n))
-    args = (d, z, 1e-3, 1e-4, 1e-2, 0.0, 1.0, 1.0, 0.0, 4.0)
+    d, z, acc, vel, g = 0.01 * rng.standard_normal((5, n))
+    args = (d, g, z, 1e-3, 1e-4, 1e-2, 3e-2, 0.0, 1.0, 1.0, 0.0, 4.0)
     obs = np.ones(n, dtype=bool)
-    fast = kernels.kalman_filter(*args[:2], obs, *args[2:], True)
-    ref = kernels.kalman_filter.py_func(*args[:2], obs, *args[2:], True)
+    fast = kernels.kalman_filter(*args[:3], obs, *args[3:], True)
+    ref = kernels.kalman_filter.py_func(*args[:3], obs, *args[3:], True)
     for x, y in zip(fast, ref):
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
     assert kernels.kalman_loglik(*args) == pytest.approx(fast[2], rel=1e-12)
-    for x, y in zip(kernels.rts_smoother(d, *fast[:2], 1e-4, 1e-2), kernels.rts_smoother.py_func(d, *ref[:2], 1e-4, 1e-2)):
+    for x, y in zip(kernels.rts_smoother(d, g, *fast[:2], 1e-4, 1e-2, 3e-2),
+                    kernels.rts_smoother.py_func(d, g, *ref[:2], 1e-4, 1e-2, 3e-2)):
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
     chans, slopes = np.vstack([z, acc, vel]), np.array([0.3, 0.1, 0.2])
-    args = (d, chans, slopes, 1e-3, 1e-4, 1e-2, 1.0, 4.0, np.zeros(n, dtype=bool))
+    args = (d, g, chans, slopes, 1e-3, 1e-4, 1e-2, 3e-2, 1.0, 4.0, np.zeros(n, dtype=bool))
     for x, y in zip(kernels.marginal_loglik(*args), kernels.marginal_loglik.py_func(*args)):
         np.testing.assert_allclose(x, y, rtol=1e-9)
     # the quadratic form equals the direct two-state likelihood of z = f − m·ÿ − b·ẏ
@@ -114,7 +115,7 @@ def test_compiled_kernels_equal_the_reference():
     w = np.array([1.0, -m, -b])
     zz = z - m * acc - b * vel
     # same initial mean as the quadratic form: first value and slope of z
-    direct = kernels.kalman_loglik(d, zz, 1e-3, 1e-4, 1e-2, zz[0], slopes @ w, 1.0, 0.0, 4.0)
+    direct = kernels.kalman_loglik(d, g, zz, 1e-3, 1e-4, 1e-2, 3e-2, zz[0], slopes @ w, 1.0, 0.0, 4.0)
     assert -0.5 * (n * np.log(2 * np.pi) + sls + w @ a @ w) == pytest.approx(direct, rel=1e-10)
 
 
@@ -122,16 +123,19 @@ def test_smoother_in_place_equals_the_textbook_pass():
     # The RTS pass recomputes the predicted moments instead of storing them; a textbook pass
     # with explicit matrices and stored predictions (written here independently) must agree.
     rng = np.random.default_rng(5)
-    n, r, qs, qk = 300, 1e-3, 1e-4, 1e-2
-    d, z = 0.01 * rng.standard_normal((2, n))
-    mean, cov, _ = kernels.kalman_filter(d, z, np.ones(n, dtype=bool), r, qs, qk, 0.0, 1.0, 1.0, 0.0, 4.0, False)
+    # The process noise has both stiffness walks: Q = diag(qs, qk) + qc·[[g², g], [g, 1]].
+    n, r, qs, qk, qc = 300, 1e-3, 1e-4, 1e-2, 3e-2
+    d, z, g = 0.01 * rng.standard_normal((3, n))
+    mean, cov, _ = kernels.kalman_filter(d, g, z, np.ones(n, dtype=bool), r, qs, qk, qc, 0.0, 1.0, 1.0, 0.0, 4.0,
+                                         False)
     filt_m = [np.array(m) for m in mean]
     filt_p = [np.array([[c[0], c[1]], [c[1], c[2]]]) for c in cov]
-    sm, sc = kernels.rts_smoother(d, mean.copy(), cov.copy(), qs, qk)
+    sm, sc = kernels.rts_smoother(d, g, mean.copy(), cov.copy(), qs, qk, qc)
     xs, ps = filt_m[-1], filt_p[-1]
     for i in range(n - 2, -1, -1):
         f = np.array([[1.0, d[i + 1]], [0.0, 1.0]])
-        xp, pp = f @ filt_m[i], f @ filt_p[i] @ f.T + np.diag([qs, qk])
+        q = np.diag([qs, qk]) + qc * np.outer([g[i + 1], 1.0], [g[i + 1], 1.0])
+        xp, pp = f @ filt_m[i], f @ filt_p[i] @ f.T + q
         c = filt_p[i] @ f.T @ np.linalg.inv(pp)
         xs, ps = filt_m[i] + c @ (xs - xp), filt_p[i] + c @ (ps - pp) @ c.T
         # matrix products in another order than the kernel's: agreement to rounding, not bits

@@ -10,7 +10,7 @@ from ..estimate.observer import informed_samples
 from ..filtered import Filtered
 from ..mechanics.identification import Identification
 from . import model
-from .verdict import (AGREEMENT_MAX, BAND_WIDTH_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
+from .verdict import (AGREEMENT_MAX, BAND_WIDTH_MAX, BAND_ZERO_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
                       NEGATIVE_SHARE_MAX, NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE,
                       VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks, check_at_least, check_at_most,
                       finite_or_none)
@@ -121,16 +121,21 @@ def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
                       good="the band is narrower than the stiffness itself",
                       bad="the band is wider than the stiffness itself: the recording does not pin the stiffness "
                           "down (too little motion, or torque the model takes for stiffness changes)"),
+        check_at_most("band_excludes_zero", finite_or_none(width), BAND_ZERO_MAX, severity=UNRELIABLE,
+                      good="the band does not reach zero: the recording tells a stiffness from none",
+                      bad="the band is more than twice as wide as the stiffness and reaches zero: the recording "
+                          "does not determine the stiffness (torque noise, too little motion, or torque the model "
+                          "cannot explain)"),
     ]
 
 
 def _noise_levels(margins: np.ndarray, negligible: bool, share: float) -> Check:
     if negligible:
-        return _negligible("noise_levels_at_bounds", float(min(margins[0], margins[2])), BOUND_MARGIN, share)
-    at_bound = [name for name, m in zip(("measurement noise", "torque walk", "stiffness walk"), margins)
-                if m < BOUND_MARGIN]
+        return _negligible("noise_levels_at_bounds", float(min(margins[0], *margins[2:])), BOUND_MARGIN, share)
+    names = ("measurement noise", "torque walk", "stiffness walk", "stiffness walk")    # Q_σ and Q_c alike
+    at_bound = list(dict.fromkeys(name for name, m in zip(names, margins) if m < BOUND_MARGIN))
     failing = [n for n in at_bound if n != "torque walk"]
-    value = float(min(margins[0], margins[2]))
+    value = float(min(margins[0], *margins[2:]))
     note = (" (the torque walk is at its bound: torque not explained by the angle, such as a reflex, is large)"
             if "torque walk" in at_bound else "")
     if failing:

@@ -56,7 +56,7 @@ class InnovationStatistics:
 def _steps(filtered: Filtered, inertia: float, damping: float) -> ModelSteps:
     return model_steps(filtered.angle, filtered.elastic_torque(inertia, damping), sample_period=filtered.sample_period,
                        decimation=kalman_decimation(filtered.sample_period, filtered.cutoff_hz), edge=filtered.edge,
-                       scale_from=filtered.torque)
+                       motion_frequency=filtered.motion_hz, scale_from=filtered.torque)
 
 
 def heldout_prediction(filtered: Filtered, *, inertia: float, damping: float,
@@ -88,8 +88,9 @@ def heldout_prediction(filtered: Filtered, *, inertia: float, damping: float,
     elastic = np.empty(len(st.index))
     for j in range(folds):
         left_out = fold == j
-        smoothed = kalman_smoother(st.increments, st.measured, noise, step=st.step, initial_mean=st.initial_mean,
-                                   initial_cov=st.initial_cov, loglik=False, observed=~left_out)
+        smoothed = kalman_smoother(st.increments, st.measured, noise, step=st.step, deflection=st.deflection,
+                                   initial_mean=st.initial_mean, initial_cov=st.initial_cov, loglik=False,
+                                   observed=~left_out)
         for a, b in _runs(left_out):
             elastic[a:b] = _across_gap(st.angle, smoothed.mean, a, b)
     i = st.index
@@ -161,9 +162,9 @@ def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
     st = _steps(filtered, inertia, damping)
     if len(st.index) < MIN_STEPS:
         return None
-    e, s = kernels.kalman_innovations(st.increments, np.ascontiguousarray(st.measured), float(noise.measurement),
-                                      float(noise.torque_walk * st.step), float(noise.stiffness_walk * st.step),
-                                      float(st.initial_mean[0]), float(st.initial_mean[1]), *map(float, st.initial_cov))
+    e, s = kernels.kalman_innovations(st.increments, st.deflection, np.ascontiguousarray(st.measured),
+                                      *noise.per_step(st.step), float(st.initial_mean[0]), float(st.initial_mean[1]),
+                                      *map(float, st.initial_cov))
     skip = max(WHITENESS_LAGS, len(e) // 50)          # the diffuse start
     u = e[skip:] / np.sqrt(s[skip:])
     u = (u - u.mean()) / max(float(u.std()), 1e-300)
@@ -187,8 +188,8 @@ def dynamic_variance(filtered: Filtered) -> float:
 
 
 def bound_margins(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> np.ndarray:
-    """How far each noise level lies below its upper bound, in natural-log units, shape (3,):
-    measurement R, torque walk Q_s, stiffness walk Q_σ (:func:`~limbstiff.estimate.kalman.noise_bounds`)."""
+    """How far each noise level lies below its upper bound, in natural-log units, shape (4,):
+    measurement R, torque walk Q_s, stiffness walks Q_σ and Q_c (:func:`~limbstiff.estimate.kalman.noise_bounds`)."""
     st = _steps(filtered, inertia, damping)
     bounds = np.array(noise_bounds(float(np.var(st.measured)), float(np.sqrt(st.initial_cov[2])), filtered.motion_hz))
     logs = noise.logs()

@@ -44,6 +44,10 @@ NEGATIVE_SHARE_MAX = 0.05
 #: Median band width over |median stiffness| above which it is ``caution``: the band is wider
 #: than the stiffness itself. Clean simulated trials ≤ 0.06, effects up to 0.9, z_pf2 1.3, z_pf 5.6.
 BAND_WIDTH_MAX = 1.0
+#: Median band width over |median stiffness| above which it is ``unreliable``: a 90 % band more
+#: than twice as wide as the stiffness reaches zero (half-width > |median|), so the recording does
+#: not tell a stiffness from none. Follows from the band's definition, not fitted to trials.
+BAND_ZERO_MAX = 2.0
 #: A noise level less than this (natural-log units, a factor 1.65) below its upper bound is "at
 #: the bound". For the stiffness walk that means the stiffness changes as fast as the model
 #: allows, taking up torque it does not explain: clean simulated trials stay ≥ 5 below it, z_df

@@ -41,15 +41,16 @@ def course_deviations(steps: ModelSteps, noise: NoiseLevels, *, draws: int, rng:
     start = np.asarray(steps.initial_mean) + rng.standard_normal((draws, 2)) @ np.linalg.cholesky(
         np.array([[p11, p12], [p12, p22]]) + 1e-300 * np.eye(2)).T
     w_k = rng.standard_normal((draws, n)) * np.sqrt(noise.stiffness_walk * dt)
+    w_c = rng.standard_normal((draws, n)) * np.sqrt(noise.coupled_walk * dt)
     w_s = rng.standard_normal((draws, n)) * np.sqrt(noise.torque_walk * dt)
-    w_k[:, 0] = w_s[:, 0] = 0.0
-    stiffness = start[:, 1:] + np.cumsum(w_k, axis=1)
+    w_k[:, 0] = w_c[:, 0] = w_s[:, 0] = 0.0
+    stiffness = start[:, 1:] + np.cumsum(w_k + w_c, axis=1)
     change = np.zeros((draws, n))
-    change[:, 1:] = stiffness[:, :-1] * steps.increments[1:] + w_s[:, 1:]
+    change[:, 1:] = stiffness[:, :-1] * steps.increments[1:] + steps.deflection[1:] * w_c[:, 1:] + w_s[:, 1:]
     measured = start[:, :1] + np.cumsum(change, axis=1) + rng.standard_normal((draws, n)) * np.sqrt(noise.measurement)
     out = np.empty((draws, n))
     for j in range(draws):
-        smoothed = kalman_smoother(steps.increments, measured[j], noise, step=dt,
+        smoothed = kalman_smoother(steps.increments, measured[j], noise, step=dt, deflection=steps.deflection,
                                    initial_mean=steps.initial_mean, initial_cov=steps.initial_cov, loglik=False)
         out[j] = stiffness[j] - smoothed.mean[:, 1]
     return at_steps(out) if aligned else out

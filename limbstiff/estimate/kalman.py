@@ -2,14 +2,24 @@
 
 State-space model of a recording, one step per (possibly decimated) sample k:
 
-    s[k] = s[k−1] + σ[k−1]·(y[k] − y[k−1]) + w_s      elastic torque: ds = σ·dy
-    σ[k] = σ[k−1] + w_σ                               stiffness: a random walk
-    z[k] = f[k] − m·ÿ[k] − b·ẏ[k] = s[k] + v          torque left to the elastic element
+    s[k] = s[k−1] + σ[k−1]·(y[k] − y[k−1]) + g[k]·w_c + w_s    elastic torque: ds = σ·dy
+    σ[k] = σ[k−1] + w_σ + w_c                                    stiffness: a random walk
+    z[k] = f[k] − m·ÿ[k] − b·ẏ[k] = s[k] + v                     torque left to the elastic element
 
-with w_s ~ N(0, Q_s·Δt), w_σ ~ N(0, Q_σ·Δt), v ~ N(0, R). It needs the angle's increments,
-not its third derivative; the stiffness is observed through the motion, so its posterior
-variance grows wherever the joint does not move. The filter's prediction errors give the
-exact Gaussian log-likelihood (prediction-error decomposition) used to fit R, Q_s, Q_σ.
+with w_s ~ N(0, Q_s·Δt), w_σ ~ N(0, Q_σ·Δt), w_c ~ N(0, Q_c·Δt), v ~ N(0, R). The stiffness
+walks in two ways. A change w_σ with no torque of its own is a stiffness that depends on the
+angle (a nonlinear spring: the torque follows from ds = σ·dy alone). A change w_c of a spring
+held at deflection g moves its torque by g·w_c at once (co-contraction, a variable-stiffness
+actuator): left out, that torque, in phase with the deflection and so with −ẏ/ω, reads as
+damping (on the project's simulated elbows and wrists b came out 4 standard errors low). g is
+the angle less its moving average over :data:`DEFLECTION_PERIODS` motion periods
+(:func:`deflection`); the slow rest of the deflection is left to w_s. The likelihood sets how
+much of the walk is of each kind.
+
+It needs the angle's increments, not its third derivative; the stiffness is observed through
+the motion, so its posterior variance grows wherever the joint does not move. The filter's
+prediction errors give the exact Gaussian log-likelihood (prediction-error decomposition)
+used to fit R, Q_s, Q_σ, Q_c.
 
 Pure numpy; the recursions live in :mod:`limbstiff.estimate.kernels` (compiled when numba is
 installed). No I/O.
@@ -35,30 +45,55 @@ class NoiseLevels:
     torque_walk : float, (N·m)²/s
         Q_s: intensity of elastic-torque changes not explained by σ·dy (s_u·u̇ of the paper).
     stiffness_walk : float, (N·m/rad)²/s
-        Q_σ: intensity of the stiffness random walk.
+        Q_σ: intensity of the stiffness walk that has no torque of its own (angle-driven).
+    coupled_walk : float, (N·m/rad)²/s
+        Q_c: intensity of the stiffness walk that moves the torque of the deflected spring.
     """
 
     measurement: float
     torque_walk: float
     stiffness_walk: float
+    coupled_walk: float
 
     def to_dict(self) -> dict:
         return {"measurement": self.measurement, "torque_walk": self.torque_walk,
-                "stiffness_walk": self.stiffness_walk}
+                "stiffness_walk": self.stiffness_walk, "coupled_walk": self.coupled_walk}
 
     def logs(self) -> np.ndarray:
-        """ln (R, Q_s, Q_σ), shape (3,): the coordinates the noise fits and the sampler work in."""
-        return np.log([self.measurement, self.torque_walk, self.stiffness_walk])
+        """ln (R, Q_s, Q_σ, Q_c), shape (4,): the coordinates the noise fits and the sampler work in."""
+        return np.log([self.measurement, self.torque_walk, self.stiffness_walk, self.coupled_walk])
+
+    def per_step(self, step: float) -> tuple[float, float, float, float]:
+        """(R, Q_s·Δt, Q_σ·Δt, Q_c·Δt): the variances per step the kernels take."""
+        return (float(self.measurement), float(self.torque_walk * step), float(self.stiffness_walk * step),
+                float(self.coupled_walk * step))
 
 
-def _args(increments, measured, noise, step, initial_mean, initial_cov):
-    return (np.ascontiguousarray(increments, dtype=float), np.ascontiguousarray(measured, dtype=float),
-            float(noise.measurement), float(noise.torque_walk * step), float(noise.stiffness_walk * step),
+#: Motion periods of the moving average the deflection is taken from (:func:`deflection`).
+DEFLECTION_PERIODS = 4.0
+
+
+def deflection(angle: np.ndarray, *, step: float, motion_frequency: float) -> np.ndarray:
+    """The part of the spring's deflection that follows the motion: the angle less its moving
+    average over :data:`DEFLECTION_PERIODS` motion periods (rad, shape (n,)). The rest angle is
+    not known; what the average leaves out is slow and goes to the torque walk Q_s."""
+    from scipy.ndimage import uniform_filter1d
+
+    y = np.asarray(angle, dtype=float)
+    window = int(round(DEFLECTION_PERIODS / (motion_frequency * step))) if motion_frequency else len(y)
+    window = min(max(window, 1), max(len(y), 1))
+    return np.ascontiguousarray(y - uniform_filter1d(y, window, mode="nearest"))
+
+
+def _args(increments, deflection_, measured, noise, step, initial_mean, initial_cov):
+    return (np.ascontiguousarray(increments, dtype=float), np.ascontiguousarray(deflection_, dtype=float),
+            np.ascontiguousarray(measured, dtype=float), *noise.per_step(step),
             float(initial_mean[0]), float(initial_mean[1]), *map(float, initial_cov))
 
 
 def kalman_loglik(increments: np.ndarray, measured: np.ndarray, noise: NoiseLevels, *, step: float,
-                  initial_mean: tuple[float, float], initial_cov: tuple[float, float, float]) -> float:
+                  deflection: np.ndarray, initial_mean: tuple[float, float],
+                  initial_cov: tuple[float, float, float]) -> float:
     """Exact Gaussian log-likelihood of the measurements (prediction-error decomposition).
 
     Parameters
@@ -70,6 +105,8 @@ def kalman_loglik(increments: np.ndarray, measured: np.ndarray, noise: NoiseLeve
     noise : NoiseLevels
     step : float, s
         Time between samples Δt.
+    deflection : ndarray, shape (n,), rad (m)
+        g[k] (:func:`deflection`).
     initial_mean : (s0, σ0)
     initial_cov : (p11, p12, p22)
 
@@ -77,7 +114,7 @@ def kalman_loglik(increments: np.ndarray, measured: np.ndarray, noise: NoiseLeve
     -------
     float
     """
-    return float(kernels.kalman_loglik(*_args(increments, measured, noise, step, initial_mean, initial_cov)))
+    return float(kernels.kalman_loglik(*_args(increments, deflection, measured, noise, step, initial_mean, initial_cov)))
 
 
 @dataclass(frozen=True)
@@ -100,7 +137,7 @@ class Smoothed:
 
 
 def kalman_smoother(increments: np.ndarray, measured: np.ndarray, noise: NoiseLevels, *, step: float,
-                    initial_mean: tuple[float, float], initial_cov: tuple[float, float, float],
+                    deflection: np.ndarray, initial_mean: tuple[float, float], initial_cov: tuple[float, float, float],
                     loglik: bool = True, observed: np.ndarray | None = None) -> Smoothed:
     """Kalman filter then Rauch–Tung–Striebel smoother (arguments as :func:`kalman_loglik`).
 
@@ -119,10 +156,10 @@ def kalman_smoother(increments: np.ndarray, measured: np.ndarray, noise: NoiseLe
     -------
     Smoothed
     """
-    args = _args(increments, measured, noise, step, initial_mean, initial_cov)
-    observed = np.ones(len(args[1]), dtype=bool) if observed is None else np.ascontiguousarray(observed, dtype=bool)
-    mean, cov, value = kernels.kalman_filter(*args[:2], observed, *args[2:], loglik)
-    kernels.rts_smoother(args[0], mean, cov, args[3], args[4])
+    args = _args(increments, deflection, measured, noise, step, initial_mean, initial_cov)
+    observed = np.ones(len(args[2]), dtype=bool) if observed is None else np.ascontiguousarray(observed, dtype=bool)
+    mean, cov, value = kernels.kalman_filter(*args[:3], observed, *args[3:], loglik)
+    kernels.rts_smoother(args[0], args[1], mean, cov, *args[4:7])
     return Smoothed(mean, cov, float(value) if loglik else None)
 
 
@@ -178,15 +215,37 @@ def _initial_mean(angle, measured):
     return float(measured[0]), float(initial_slopes(angle, measured)[0])
 
 
+#: Windows the trial is cut into for the local stiffness scale (:func:`initial_cov`).
+SCALE_WINDOWS = 16
+
+
 def initial_cov(angle, scale_from):
     """Diffuse initial covariance from the size of a torque signal (not of z, so that it does
-    not change with m and b): var(torque) for s, (sd(torque)/sd(y))² for σ."""
-    v = float(np.var(scale_from)) + 1e-300
-    return (v, 0.0, v / max(float(np.var(angle)), 1e-300))
+    not change with m and b): var(torque) for s; for σ the square of the larger of the secant
+    stiffness sd(torque)/sd(y) and the steepest local one, the torque's least-squares slope on y
+    in :data:`SCALE_WINDOWS` windows that move (at least a tenth of the median window's spread).
+
+    σ's variance also sets the scale of the stiffness walk's bounds (:func:`noise_bounds`). The
+    secant alone understates a spring that stiffens with the angle: on the paper's exponential
+    spring its tangent stiffness reaches several times the secant one, the walk sat on its
+    bound and the estimate was 75 % off."""
+    y, f = np.asarray(angle, dtype=float), np.asarray(scale_from, dtype=float)
+    v = float(np.var(f)) + 1e-300
+    k2 = v / max(float(np.var(y)), 1e-300)
+    size = len(y) // SCALE_WINDOWS
+    if size >= 8:
+        yw = y[:size * SCALE_WINDOWS].reshape(SCALE_WINDOWS, size)
+        fw = f[:size * SCALE_WINDOWS].reshape(SCALE_WINDOWS, size)
+        yc, fc = yw - yw.mean(axis=1, keepdims=True), fw - fw.mean(axis=1, keepdims=True)
+        yy = np.sum(yc * yc, axis=1)
+        moving = yy >= 0.01 * np.median(yy)
+        if np.any(moving) and np.median(yy) > 0:
+            k2 = max(k2, float(np.max((np.sum(yc * fc, axis=1)[moving] / yy[moving]) ** 2)))
+    return (v, 0.0, k2)
 
 
 def noise_bounds(measured_variance: float, stiffness_scale: float, motion_frequency: float) -> list:
-    """Bounds on the logarithms of (R, Q_s, Q_σ) that keep the model observable.
+    """Bounds on the logarithms of (R, Q_s, Q_σ, Q_c) that keep the model observable.
 
     Upper bounds: by bound (9) of the paper a stiffness that changes faster than the motion
     reveals it cannot be tracked, so within one period of the typical motion the stiffness may
@@ -197,13 +256,14 @@ def noise_bounds(measured_variance: float, stiffness_scale: float, motion_freque
     term has no visible effect on the estimate — measurement noise of 10⁻⁶·var(z), a
     non-elastic torque walking by 0.1 % of its spread or a stiffness walking by 0.01 % of
     itself per motion period — so that a flat prior on the log scale stays proper and the
-    sampler does not wander over decades the data cannot tell apart.
+    sampler does not wander over decades the data cannot tell apart. The coupled walk Q_c is a
+    stiffness walk too and has Q_σ's bounds.
     """
     v = max(measured_variance, 1e-300)
     k2 = max(stiffness_scale ** 2, 1e-300)
     f = motion_frequency
     return [(np.log(1e-6 * v), np.log(v)), (np.log(1e-6 * v * f), np.log(v * f)),
-            (np.log(1e-8 * k2 * f), np.log(k2 * f))]
+            (np.log(1e-8 * k2 * f), np.log(k2 * f)), (np.log(1e-8 * k2 * f), np.log(k2 * f))]
 
 
 def nelder_mead(loglik, starts, bounds: list, max_evaluations: int = 300):
@@ -221,7 +281,7 @@ def nelder_mead(loglik, starts, bounds: list, max_evaluations: int = 300):
     best = None
     for start in starts:
         x0 = np.clip(np.asarray(start, dtype=float), lo, hi)
-        simplex = np.clip(x0 + np.vstack([np.zeros(3), 2.0 * np.eye(3)]), lo, hi)
+        simplex = np.clip(x0 + np.vstack([np.zeros(len(x0)), 2.0 * np.eye(len(x0))]), lo, hi)
         res = minimize(negative, x0, method="Nelder-Mead", bounds=bounds,
                        options={"xatol": 0.02, "fatol": 0.01, "maxfev": max_evaluations,
                                 "initial_simplex": simplex})
@@ -234,17 +294,17 @@ def maximise(loglik, start: np.ndarray, bounds: list, max_evaluations: int = 300
     """Nelder–Mead over the log noise levels within ``bounds``; returns (best logs, best value).
 
     The likelihood can have a second, poorer optimum where the stiffness walks fast and
-    explains the torque sample by sample; the search therefore also starts with the
-    stiffness walk 10³ times smaller and larger, and keeps the best.
+    explains the torque sample by sample; the search therefore also starts with both stiffness
+    walks 10³ times smaller and larger, and keeps the best.
     """
     start = np.asarray(start, dtype=float)
-    return nelder_mead(loglik, [start + np.array([0.0, 0.0, shift]) for shift in (0.0, -3 * np.log(10), 3 * np.log(10))],
+    return nelder_mead(loglik, [start + np.array([0.0, 0.0, shift, shift]) for shift in (0.0, -3 * np.log(10), 3 * np.log(10))],
                        bounds, max_evaluations)
 
 
-def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, initial_mean,
-                     initial_cov, guess: NoiseLevels, motion_frequency: float,
-                     max_evaluations: int = 300) -> tuple[NoiseLevels, float]:
+def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, deflection: np.ndarray,
+                     initial_mean, initial_cov, guess: NoiseLevels, motion_frequency: float,
+                     max_evaluations: int = 400) -> tuple[NoiseLevels, float]:
     """Maximum-likelihood noise levels within :func:`noise_bounds`.
 
     Returns
@@ -256,7 +316,7 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
     bounds = noise_bounds(float(np.var(measured)), float(np.sqrt(initial_cov[2])), motion_frequency)
 
     def loglik(x):
-        return kalman_loglik(increments, measured, NoiseLevels(*np.exp(x)), step=step,
+        return kalman_loglik(increments, measured, NoiseLevels(*np.exp(x)), step=step, deflection=deflection,
                              initial_mean=initial_mean, initial_cov=initial_cov)
 
     best, value = maximise(loglik, x0, bounds, max_evaluations)
@@ -271,8 +331,9 @@ class ModelSteps:
     ----------
     index : ndarray of int, shape (m,)
         Sample of each step.
-    angle, measured, increments : ndarray, shape (m,)
-        y (rad), z (N·m) and y[k] − y[k−1] (the first 0) at the steps.
+    angle, measured, increments, deflection : ndarray, shape (m,)
+        y (rad), z (N·m), y[k] − y[k−1] (the first 0) and the deflection g (rad,
+        :func:`deflection`) at the steps.
     step : float, s
         Time between steps.
     initial_mean : (float, float)
@@ -285,25 +346,28 @@ class ModelSteps:
     angle: np.ndarray
     measured: np.ndarray
     increments: np.ndarray
+    deflection: np.ndarray
     step: float
     initial_mean: tuple
     initial_cov: tuple
 
 
 def model_steps(angle: np.ndarray, measured: np.ndarray, *, sample_period: float, decimation: int, edge: int,
-                scale_from: np.ndarray | None = None) -> ModelSteps:
+                motion_frequency: float, scale_from: np.ndarray | None = None) -> ModelSteps:
     """Every ``decimation``-th sample between the ``edge`` samples at each end, with the model's
     initial state (arguments as :func:`kalman_stiffness`)."""
     idx = np.arange(edge, len(angle) - edge, decimation)
     y, z = angle[idx], measured[idx]
+    step = sample_period * decimation
     return ModelSteps(index=idx, angle=y, measured=z, increments=np.diff(y, prepend=y[0]),
-                      step=sample_period * decimation, initial_mean=_initial_mean(y, z),
+                      deflection=deflection(y, step=step, motion_frequency=motion_frequency),
+                      step=step, initial_mean=_initial_mean(y, z),
                       initial_cov=initial_cov(y, z if scale_from is None else np.asarray(scale_from)[idx]))
 
 
 def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: float, decimation: int = 1,
-                     noise: NoiseLevels | None = None, regressors: tuple = (),
-                     motion_frequency: float | None = None, scale_from: np.ndarray | None = None,
+                     motion_frequency: float, noise: NoiseLevels | None = None, regressors: tuple = (),
+                     scale_from: np.ndarray | None = None,
                      edge: int = 0) -> KalmanStiffness:
     """Stiffness course by Kalman filtering and RTS smoothing, noise levels from the data.
 
@@ -323,7 +387,7 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
         Signals whose smoothed responses to return (for example ÿ and ẏ: the stiffness
         then changes by −Δm·response₀ − Δb·response₁ when m and b change).
     motion_frequency : float, Hz
-        Typical frequency of the motion (needed when ``noise`` is fitted).
+        Typical frequency of the motion (sets the noise bounds and the deflection's average).
     scale_from : ndarray, shape (n,), optional
         Torque whose size sets the diffuse initial covariance (default ``measured``); give the
         recorded torque to keep the estimate exactly affine in m and b.
@@ -336,23 +400,23 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
     KalmanStiffness
     """
     st = model_steps(angle, measured, sample_period=sample_period, decimation=decimation, edge=edge,
-                     scale_from=scale_from)
-    idx, y, z, increments, step = st.index, st.angle, st.measured, st.increments, st.step
+                     motion_frequency=motion_frequency, scale_from=scale_from)
+    idx, y, z, increments, step, g = st.index, st.angle, st.measured, st.increments, st.step, st.deflection
     mean0, cov0 = st.initial_mean, st.initial_cov
     if noise is None:
         duration = step * len(y)
         resid = float(np.var(z - mean0[1] * (y - y.mean()))) + 1e-300
-        guess = NoiseLevels(measurement=resid, torque_walk=resid / duration,
-                            stiffness_walk=(0.1 * abs(mean0[1]) + 1e-12) ** 2)
-        noise, _ = fit_noise_levels(increments, z, step=step, initial_mean=mean0, initial_cov=cov0,
+        walk = (0.1 * abs(mean0[1]) + 1e-12) ** 2
+        guess = NoiseLevels(measurement=resid, torque_walk=resid / duration, stiffness_walk=walk, coupled_walk=walk)
+        noise, _ = fit_noise_levels(increments, z, step=step, deflection=g, initial_mean=mean0, initial_cov=cov0,
                                     guess=guess, motion_frequency=motion_frequency)
-    out = kalman_smoother(increments, z, noise, step=step, initial_mean=mean0, initial_cov=cov0)
+    out = kalman_smoother(increments, z, noise, step=step, deflection=g, initial_mean=mean0, initial_cov=cov0)
     back = _regular_grid(len(angle), edge, decimation, len(idx))
     responses = np.empty((len(regressors), len(angle)))
     for j, reg in enumerate(regressors):
         r = np.asarray(reg)[idx]
-        resp = kalman_smoother(increments, r, noise, step=step, initial_mean=_initial_mean(y, r), initial_cov=cov0,
-                               loglik=False)
+        resp = kalman_smoother(increments, r, noise, step=step, deflection=g, initial_mean=_initial_mean(y, r),
+                               initial_cov=cov0, loglik=False)
         responses[j] = back(at_steps(resp.mean[:, 1]))
     return KalmanStiffness(stiffness=back(at_steps(out.mean[:, 1])),
                            variance=back(at_steps(np.maximum(out.cov[:, 2], 0.0))),

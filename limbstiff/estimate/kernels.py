@@ -32,10 +32,12 @@ def linear_recursion(a, c, initial):
     return out
 
 
-def _predict(p11, p12, p22, di, qs, qk):
+def _predict(p11, p12, p22, di, gi, qs, qk, qc):
     """Covariance [p11, p12, p22] of the state [s, σ] one step ahead: F·P·Fᵀ + Q with
-    F = [[1, di], [0, 1]] (ds = σ·dy) and Q = diag(qs, qk)."""
-    return p11 + 2.0 * di * p12 + di * di * p22 + qs, p12 + di * p22, p22 + qk
+    F = [[1, di], [0, 1]] (ds = σ·dy) and Q = diag(qs, qk) + qc·[[gi², gi], [gi, 1]] (a
+    stiffness change w_c moves the elastic torque by gi·w_c, gi the spring's deflection)."""
+    return (p11 + 2.0 * di * p12 + di * di * p22 + qs + qc * gi * gi, p12 + di * p22 + qc * gi,
+            p22 + qk + qc)
 
 
 def _update(p11, p12, p22, r):
@@ -47,11 +49,11 @@ def _update(p11, p12, p22, r):
     return sv, g1, g2, p11 - g1 * p11, p12 - g1 * p12, p22 - g2 * p12
 
 
-def _advance(i, d, qs, qk, s, k, p11, p12, p22):
+def _advance(i, d, g, qs, qk, qc, s, k, p11, p12, p22):
     """The state [s, σ] and its covariance carried to step i (unchanged at the first step)."""
     if i > 0:
         s = s + k * d[i]
-        p11, p12, p22 = _predict(p11, p12, p22, d[i], qs, qk)
+        p11, p12, p22 = _predict(p11, p12, p22, d[i], g[i], qs, qk, qc)
     return s, k, p11, p12, p22
 
 
@@ -62,20 +64,20 @@ def _observe(zi, r, s, k, p11, p12, p22):
     return s + g1 * e, k + g2 * e, p11, p12, p22, e, sv
 
 
-def kalman_loglik(d, z, r, qs, qk, s, k, p11, p12, p22):
+def kalman_loglik(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22):
     """Log-likelihood of the model of :mod:`limbstiff.estimate.kalman` (prediction-error
     decomposition); the filter pass of :func:`kalman_filter` keeping no moments."""
     n = z.shape[0]
     loglik = 0.0
     log2pi = math.log(2.0 * math.pi)
     for i in range(n):
-        s, k, p11, p12, p22 = _advance(i, d, qs, qk, s, k, p11, p12, p22)
+        s, k, p11, p12, p22 = _advance(i, d, g, qs, qk, qc, s, k, p11, p12, p22)
         s, k, p11, p12, p22, e, sv = _observe(z[i], r, s, k, p11, p12, p22)
         loglik -= 0.5 * (log2pi + math.log(sv) + e * e / sv)
     return loglik
 
 
-def kalman_filter(d, z, observed, r, qs, qk, s, k, p11, p12, p22, with_loglik):
+def kalman_filter(d, g, z, observed, r, qs, qk, qc, s, k, p11, p12, p22, with_loglik):
     """Filter pass keeping the filtered moments (the predicted ones are recomputed by
     :func:`rts_smoother`, which halves the memory written per step).
 
@@ -98,7 +100,7 @@ def kalman_filter(d, z, observed, r, qs, qk, s, k, p11, p12, p22, with_loglik):
     loglik = 0.0
     log2pi = math.log(2.0 * math.pi)
     for i in range(n):
-        s, k, p11, p12, p22 = _advance(i, d, qs, qk, s, k, p11, p12, p22)
+        s, k, p11, p12, p22 = _advance(i, d, g, qs, qk, qc, s, k, p11, p12, p22)
         if observed[i]:
             s, k, p11, p12, p22, e, sv = _observe(z[i], r, s, k, p11, p12, p22)
             if with_loglik:
@@ -111,21 +113,21 @@ def kalman_filter(d, z, observed, r, qs, qk, s, k, p11, p12, p22, with_loglik):
     return mean, cov, loglik
 
 
-def kalman_innovations(d, z, r, qs, qk, s, k, p11, p12, p22):
+def kalman_innovations(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22):
     """Filter pass returning the one-step prediction errors e = z − ŝ⁻ and their variances S
     (each shape (n,)): white, of variance S, when the model is right."""
     n = z.shape[0]
     innovation = np.empty(n)
     variance = np.empty(n)
     for i in range(n):
-        s, k, p11, p12, p22 = _advance(i, d, qs, qk, s, k, p11, p12, p22)
+        s, k, p11, p12, p22 = _advance(i, d, g, qs, qk, qc, s, k, p11, p12, p22)
         s, k, p11, p12, p22, e, sv = _observe(z[i], r, s, k, p11, p12, p22)
         innovation[i] = e
         variance[i] = sv
     return innovation, variance
 
 
-def rts_smoother(d, mean, cov, qs, qk):
+def rts_smoother(d, g, mean, cov, qs, qk, qc):
     """Rauch–Tung–Striebel pass, in place: ``mean`` (n, 2) and ``cov`` (n, 3) hold the filtered
     moments of :func:`kalman_filter` on entry and the smoothed ones on return.
 
@@ -145,7 +147,7 @@ def rts_smoother(d, mean, cov, qs, qk):
         f22 = cov[i, 2]
         fs = mean[i, 0]
         fk = mean[i, 1]
-        q11, q12, q22 = _predict(f11, f12, f22, di, qs, qk)
+        q11, q12, q22 = _predict(f11, f12, f22, di, g[i + 1], qs, qk, qc)
         # gain C = P_f·Fᵀ·(P⁻)⁻¹ with F = [[1, d], [0, 1]]
         b11 = f11 + di * f12
         b12 = f12
@@ -182,7 +184,7 @@ def rts_smoother(d, mean, cov, qs, qk):
     return mean, cov
 
 
-def kalman_channel_innovations(d, chans, slopes, r, qs, qk, p11, p22, restart):
+def kalman_channel_innovations(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart):
     """One filter pass of the two-state model over several measurement channels at once.
 
     The covariance recursion does not depend on the data, so every channel's innovations share
@@ -220,7 +222,7 @@ def kalman_channel_innovations(d, chans, slopes, r, qs, qk, p11, p22, restart):
             di = d[i]
             for c in range(nc):
                 s[c] += sig[c] * di
-            a11, a12, a22 = _predict(a11, a12, a22, di, qs, qk)
+            a11, a12, a22 = _predict(a11, a12, a22, di, g[i], qs, qk, qc)
         sv, g1, g2, a11, a12, a22 = _update(a11, a12, a22, r)
         for c in range(nc):
             e = chans[c, i] - s[c]
@@ -231,7 +233,7 @@ def kalman_channel_innovations(d, chans, slopes, r, qs, qk, p11, p22, restart):
     return innovations, variance
 
 
-def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
+def kalman_quadratic(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart):
     """One filter pass of the two-state model over several measurement channels at once.
 
     The covariance recursion does not depend on the data, so the innovations of every channel
@@ -241,9 +243,10 @@ def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
     Parameters
     ----------
     d : (n,) increments of y
+    g : (n,) deflection of the spring at each step (:func:`limbstiff.estimate.kalman.deflection`)
     chans : (c, n) measurement channels
     slopes : (c,) initial σ of each channel (its least-squares slope on y)
-    r, qs, qk : noise variances per step
+    r, qs, qk, qc : noise variances per step
     p11, p22 : initial variances of s and σ
     restart : (n,) bool; where True the state restarts (independent blocks of data)
 
@@ -252,7 +255,7 @@ def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
     sum_log_s : float
     a : ndarray, shape (c, c)
     """
-    innovations, variance = kalman_channel_innovations(d, chans, slopes, r, qs, qk, p11, p22, restart)
+    innovations, variance = kalman_channel_innovations(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart)
     nc = chans.shape[0]
     a = np.zeros((nc, nc))
     sum_log_s = 0.0
@@ -265,12 +268,12 @@ def kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart):
     return sum_log_s, a
 
 
-def marginal_loglik(d, chans, slopes, r, qs, qk, p11, p22, restart):
+def marginal_loglik(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart):
     """Log-likelihood of the noise levels with the weights of channels 1 and 2 (−m, −b)
     integrated out under a flat prior, and their Gaussian posterior (see
     :func:`kalman_quadratic`). Returns (loglik, m, b, var_m, cov_mb, var_b); loglik is −inf
     when the data do not determine m and b."""
-    sls, a = kalman_quadratic(d, chans, slopes, r, qs, qk, p11, p22, restart)
+    sls, a = kalman_quadratic(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart)
     h1 = a[0, 1]
     h2 = a[0, 2]
     det = a[1, 1] * a[2, 2] - a[1, 2] * a[1, 2]

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..estimate.kalman import NoiseLevels
+from ..estimate.kalman import NoiseLevels, deflection
 from . import nominal
 from .channels import Channels
 from .kinds import Effect
@@ -146,7 +146,8 @@ def _composed(problem: Problem, i: int, components, keep: bool = True) -> tuple[
         rows = lay.rows
         chans = [ch.target()[None, rows], ch.nuisance_columns(rows)] + [r[:, rows] for r in regs]
         hit = (ch, nominal.Steps(angle=ch.angle[rows], channels=np.vstack(chans), scale=ch0.torque[rows],
-                                 step=lay.step_s))
+                                 step=lay.step_s, deflection=deflection(ch.angle[rows], step=lay.step_s,
+                                                                        motion_frequency=ch.motion_hz)))
         if keep:
             problem.cache[key] = hit
     return hit
@@ -169,7 +170,7 @@ def trial_steps(problem: Problem, i: int, components, effect: Effect | None = No
     if regs is None:
         regs = problem.cache[key] = effect.evaluate(ch, shape).regressors[:, problem.layouts[i].rows]
     return nominal.Steps(angle=base.angle, channels=np.vstack([base.channels, regs]), scale=base.scale,
-                         step=base.step)
+                         step=base.step, deflection=base.deflection)
 
 
 def _noise(problem: Problem, components, effect=None, shape=None, start=None) -> list[NoiseLevels]:

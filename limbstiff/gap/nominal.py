@@ -166,12 +166,15 @@ class Steps:
         The recorded torque, whose size sets the filter's diffuse start (not z: it does not change
         with the model).
     step : float, s
+    deflection : ndarray, shape (r,), rad
+        The spring's deflection at the steps (:func:`~limbstiff.estimate.kalman.deflection`).
     """
 
     angle: np.ndarray
     channels: np.ndarray
     scale: np.ndarray
     step: float
+    deflection: np.ndarray
 
     @cached_property
     def _prepared(self) -> tuple:
@@ -184,8 +187,8 @@ class Steps:
 
     def _pass_args(self, noise: NoiseLevels):
         d, chans, slopes, p11, p22, restart = self._prepared
-        return (d, chans, slopes, float(noise.measurement), float(noise.torque_walk * self.step),
-                float(noise.stiffness_walk * self.step), p11, p22, restart)
+        return (d, np.ascontiguousarray(self.deflection, dtype=float), chans, slopes, *noise.per_step(self.step),
+                p11, p22, restart)
 
     def innovations(self, noise: NoiseLevels) -> tuple[np.ndarray, np.ndarray]:
         """Each channel's innovations (c, r) and their common variance S (r,), (N·m)²."""
@@ -231,7 +234,7 @@ def fit_noise(steps: Steps, *, start: NoiseLevels, motion_hz: float) -> NoiseLev
         value = steps.marginal_loglik(NoiseLevels(*np.exp(x)))
         return value if np.isfinite(value) else -np.inf
 
-    grid = [np.array([r, x0[1], k]) for r in np.linspace(lo[0], hi[0], 5) for k in np.linspace(lo[2], hi[2], 5)]
+    grid = [np.array([r, x0[1], k, k]) for r in np.linspace(lo[0], hi[0], 5) for k in np.linspace(lo[2], hi[2], 5)]
     best, _ = nelder_mead(loglik, (x0, max(grid, key=loglik)), bounds, NOISE_EVALUATIONS)
     return NoiseLevels(*np.exp(best))
 
@@ -245,8 +248,8 @@ def start_noise(ch: Channels, steps: Steps) -> NoiseLevels:
     v = float(np.var(z - z.mean())) + 1e-300
     duration = steps.step * len(z)
     k = float(np.median(ch.stiffness))
-    return NoiseLevels(measurement=0.01 * v, torque_walk=0.01 * v / duration,
-                       stiffness_walk=(0.1 * abs(k) + 1e-12) ** 2 * ch.motion_hz)
+    walk = (0.1 * abs(k) + 1e-12) ** 2 * ch.motion_hz
+    return NoiseLevels(measurement=0.01 * v, torque_walk=0.01 * v / duration, stiffness_walk=walk, coupled_walk=walk)
 
 
 def filter_power(freq: np.ndarray, ch: Channels) -> np.ndarray:

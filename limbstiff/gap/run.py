@@ -188,8 +188,8 @@ def _untried(run: _Run, tried: set) -> list[Candidate]:
 
 
 def _walks(ev) -> list[float]:
-    """The stiffness walk Q_σ of a model, per trial ((N·m/rad)²/s)."""
-    return [float(n.stiffness_walk) for n in ev.noise]
+    """The stiffness walk of a model, both kinds together (Q_σ + Q_c), per trial ((N·m/rad)²/s)."""
+    return [float(n.stiffness_walk + n.coupled_walk) for n in ev.noise]
 
 
 def _candidate(run: _Run, name: str, scored, eff, rng: np.random.Generator) -> Candidate:

@@ -60,6 +60,7 @@ class MechanicsProblem:
     """
 
     increments: np.ndarray
+    deflection: np.ndarray
     channels: np.ndarray
     slopes: np.ndarray
     initial_cov: tuple
@@ -71,11 +72,14 @@ class MechanicsProblem:
     def build(cls, angle, velocity, acceleration, torque, *, sample_period: float, decimation: int,
               motion_frequency: float, guess: LeastSquaresFit, edge: int = 0) -> "MechanicsProblem":
         idx = np.arange(edge, len(angle) - edge, decimation)
+        step = sample_period * decimation
+        g = kalman_model.deflection(angle[idx], step=step, motion_frequency=motion_frequency)
         restart = np.zeros(len(idx), dtype=bool)
         if len(idx) > MAX_IDENTIFY_STEPS:
             size = MAX_IDENTIFY_STEPS // IDENTIFY_BLOCKS
             starts = np.linspace(0, len(idx) - size, IDENTIFY_BLOCKS).astype(int)
-            idx = np.concatenate([idx[s0:s0 + size] for s0 in starts])
+            kept = np.concatenate([np.arange(s0, s0 + size) for s0 in starts])
+            idx, g = idx[kept], np.ascontiguousarray(g[kept])
             restart = np.zeros(len(idx), dtype=bool)
             restart[::size] = True
         y = np.ascontiguousarray(angle[idx], dtype=float)
@@ -84,7 +88,7 @@ class MechanicsProblem:
         cov0 = kalman_model.initial_cov(y, chans[0])
         z = chans[0] - guess.inertia * chans[1] - guess.damping * chans[2]
         bounds = np.array(kalman_model.noise_bounds(float(np.var(z)), float(np.sqrt(cov0[2])), motion_frequency))
-        return cls(np.diff(y, prepend=y[0]), chans, slopes, cov0, sample_period * decimation, bounds, restart)
+        return cls(np.diff(y, prepend=y[0]), g, chans, slopes, cov0, step, bounds, restart)
 
     def conditional(self, log_noise):
         """Log marginal likelihood of the noise levels, and the Gaussian posterior of (m, b).
@@ -95,9 +99,9 @@ class MechanicsProblem:
         mean : ndarray, shape (2,)
         cov : ndarray, shape (2, 2)
         """
-        r, qs, qk = np.exp(np.asarray(log_noise, dtype=float))
-        ll, m, b, c11, c12, c22 = kernels.marginal_loglik(self.increments, self.channels, self.slopes, r,
-                                                         qs * self.step, qk * self.step,
+        noise = kalman_model.NoiseLevels(*np.exp(np.asarray(log_noise, dtype=float)))
+        ll, m, b, c11, c12, c22 = kernels.marginal_loglik(self.increments, self.deflection, self.channels, self.slopes,
+                                                         *noise.per_step(self.step),
                                                          self.initial_cov[0], self.initial_cov[2], self.restart)
         return float(ll), np.array([m, b]), np.array([[c11, c12], [c12, c22]])
 
@@ -145,7 +149,7 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
     Parameters
     ----------
     problem : MechanicsProblem
-    log_noise : array, shape (3,)
+    log_noise : array, shape (4,)
     mean : ndarray, shape (2,)
         (m, b) at which the residuals are taken.
     motion_frequency : float, Hz
@@ -155,10 +159,10 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
     -------
     model, sandwich : ndarray, shape (2, 2)
     """
-    r, qs, qk = np.exp(np.asarray(log_noise, dtype=float))
-    e, var = kernels.kalman_channel_innovations(problem.increments, problem.channels, problem.slopes, r,
-                                                qs * problem.step, qk * problem.step, problem.initial_cov[0],
-                                                problem.initial_cov[2], problem.restart)
+    noise = kalman_model.NoiseLevels(*np.exp(np.asarray(log_noise, dtype=float)))
+    e, var = kernels.kalman_channel_innovations(problem.increments, problem.deflection, problem.channels,
+                                                problem.slopes, *noise.per_step(problem.step),
+                                                problem.initial_cov[0], problem.initial_cov[2], problem.restart)
     e = e / np.sqrt(var)
     x = e[1:].T
     eps = e[0] - mean[0] * e[1] - mean[1] * e[2]
@@ -168,7 +172,7 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
 
 
 def kalman_mechanics(problem: MechanicsProblem, *, guess: LeastSquaresFit,
-                     max_evaluations: int = 300) -> MechanicsFit:
+                     max_evaluations: int = 400) -> MechanicsFit:
     """Inertia and damping under the Kalman model, noise levels by maximum marginal likelihood.
 
     Parameters
@@ -186,7 +190,8 @@ def kalman_mechanics(problem: MechanicsProblem, *, guess: LeastSquaresFit,
     """
     resid_var = max(guess.residual_sd ** 2, 1e-300)
     duration = problem.step * len(problem.increments)
-    start = np.log([resid_var, resid_var / duration, (0.1 * abs(problem.slopes[0]) + 1e-12) ** 2])
+    walk = (0.1 * abs(problem.slopes[0]) + 1e-12) ** 2
+    start = np.log([resid_var, resid_var / duration, walk, walk])
     best, _ = kalman_model.maximise(lambda logs: problem.conditional(logs)[0], start, list(problem.bounds),
                                  max_evaluations)
     loglik, mean, cov = problem.conditional(best)

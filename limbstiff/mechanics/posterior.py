@@ -1,7 +1,7 @@
 """Posterior of inertia, damping and the noise levels by emcee, with its quality checked.
 
 The likelihood is the Kalman model's exact one (:mod:`limbstiff.estimate.kalman`). Parameters
-θ = (m, b, ln R, ln Q_s, ln Q_σ): m and b carry the protocol's priors (default: flat on
+θ = (m, b, ln R, ln Q_s, ln Q_σ, ln Q_c): m and b carry the protocol's priors (default: flat on
 m, b > 0) and are integrated exactly given the noise levels; the log noise levels are flat
 within :func:`limbstiff.estimate.kalman.noise_bounds` and sampled by emcee. The chain runs in blocks until it is at least
 :data:`MIN_TAU_MULTIPLE` integrated autocorrelation times long (emcee's own estimator) or
@@ -21,13 +21,13 @@ from ..protocol import Prior
 MIN_TAU_MULTIPLE = 50
 #: Steps per block between convergence checks, and the most steps run.
 BLOCK_STEPS, MAX_STEPS = 250, 10_000
-#: Walkers: emcee's stretch move wants at least twice the dimension (3 noise levels).
+#: Walkers: emcee's stretch move wants at least twice the dimension (4 noise levels).
 N_WALKERS = 8
 #: The walkers start at least this far inside the noise levels' bounds (natural-log units).
 START_MARGIN = 0.1
 #: Posterior draws kept for the bands and the draws file.
 N_DRAWS = 2000
-PARAMETERS = ("inertia", "damping", "log_measurement", "log_torque_walk", "log_stiffness_walk")
+PARAMETERS = ("inertia", "damping", "log_measurement", "log_torque_walk", "log_stiffness_walk", "log_coupled_walk")
 
 
 @dataclass(frozen=True)
@@ -70,11 +70,11 @@ class McmcDiagnostics:
 
 @dataclass(frozen=True)
 class Posterior:
-    """Posterior draws of θ = (m, b, ln R, ln Q_s, ln Q_σ).
+    """Posterior draws of θ = (m, b, ln R, ln Q_s, ln Q_σ, ln Q_c).
 
     Parameters
     ----------
-    draws : ndarray, shape (n_draws, 5)
+    draws : ndarray, shape (n_draws, 6)
     diagnostics : McmcDiagnostics
     warnings : tuple of str
     """
@@ -146,7 +146,7 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     """Posterior of (m, b) and the noise levels: emcee on the noise levels, m and b exactly.
 
     For given noise levels the likelihood is Gaussian in (m, b) (see
-    :class:`identify.MechanicsProblem`), so the chain runs over the three log noise levels on
+    :class:`identify.MechanicsProblem`), so the chain runs over the four log noise levels on
     their marginal likelihood, and each kept state contributes one draw of (m, b) from its
     Gaussian conditional. The protocol's priors on m and b (and their positivity) enter by
     importance resampling of those draws.
@@ -188,14 +188,14 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
 
 
 def _run_chain(problem, start, rng: np.random.Generator):
-    """emcee over the three log noise levels, in blocks of :data:`BLOCK_STEPS` until the chain is
+    """emcee over the four log noise levels, in blocks of :data:`BLOCK_STEPS` until the chain is
     :data:`MIN_TAU_MULTIPLE` autocorrelation times long or :data:`MAX_STEPS` are run.
 
     Returns
     -------
     sampler : emcee.EnsembleSampler
     steps : int
-    tau : ndarray, shape (3,)
+    tau : ndarray, shape (4,)
         Integrated autocorrelation times, steps.
     """
     import emcee
@@ -213,11 +213,11 @@ def _run_chain(problem, start, rng: np.random.Generator):
     # move divides by their distance (NaN proposals)
     centre = np.clip(start.noise.logs(),
                      lo + START_MARGIN, hi - START_MARGIN)
-    p0 = np.clip(centre + 0.05 * rng.standard_normal((N_WALKERS, 3)), lo, hi)
+    p0 = np.clip(centre + 0.05 * rng.standard_normal((N_WALKERS, len(centre))), lo, hi)
     # differential-evolution moves: integrated autocorrelation times of ~15 steps here against
     # ~45 with the default stretch move (the stiffness walk's posterior often rests on a bound)
     moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
-    sampler = emcee.EnsembleSampler(N_WALKERS, 3, log_prob, vectorize=True, moves=moves)
+    sampler = emcee.EnsembleSampler(N_WALKERS, len(centre), log_prob, vectorize=True, moves=moves)
     sampler.random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
     state, steps = p0, 0
     while True:
@@ -235,8 +235,8 @@ def _with_mechanics(problem, noise: np.ndarray, inertia_prior: Prior, damping_pr
 
     Returns
     -------
-    draws : ndarray, shape (n, 5)
-        (m, b, ln R, ln Q_s, ln Q_σ).
+    draws : ndarray, shape (n, 6)
+        (m, b, ln R, ln Q_s, ln Q_σ, ln Q_c).
     warnings : list of str
     """
     mech = np.empty((len(noise), 2))

@@ -97,7 +97,7 @@ def _mcmc_rows(result):
             ("walkers × steps", f"{mcmc.n_walkers} × {mcmc.n_steps} (burn-in {mcmc.burn_in}, thin {mcmc.thin})")]
     for name, tau in mcmc.autocorr_time.items():
         short = {"log_measurement": "τ ln R", "log_torque_walk": "τ ln Q_s",
-                 "log_stiffness_walk": "τ ln Q_σ"}.get(name, f"τ {name}")
+                 "log_stiffness_walk": "τ ln Q_σ", "log_coupled_walk": "τ ln Q_c"}.get(name, f"τ {name}")
         rows.append((short, f"{fmt(tau, 'steps', 3)}"))
     rows += [("chain / τ", f"{fmt(mcmc.chain_in_autocorr_times, '', 3)} (≥ 50 wanted)"),
              ("acceptance", f"{fmt(mcmc.acceptance_fraction, '', 3)}"),
