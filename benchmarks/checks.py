@@ -36,7 +36,7 @@ LIMBS = ("elbow", "wrist", "ankle", "ankle-coupled", "ankle-platform")
 #: The paper's plants run clean only (their effects are not the limbs' effects).
 PAPER = ("paper-exp-spring", "paper-vsa-hogan", "paper-vsa-feldman", "paper-vsa-exp")
 FITS, WRONG = 0.10, 0.20
-REAL = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real" / "reklab-ankle"
+REAL = Path(__file__).resolve().parents[1] / "data" / "reklab-ankle"
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:

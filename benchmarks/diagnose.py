@@ -39,7 +39,7 @@ from limbstiff.protocol import Protocol  # noqa: E402
 from limbstiff.simulate import effect_defaults, simulate  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
-REAL = HERE.parents[1] / "shared" / "data" / "real" / "reklab-ankle"
+REAL = HERE.parent / "data" / "reklab-ankle"
 JOINTS = ("elbow", "wrist", "ankle")
 EFFECTS = ("coulomb_friction", "quadratic_damping", "hysteresis", "backlash", "time_delay", "reflex", "gravity",
            "sensor_drift", "inertia_error", "damping_error")

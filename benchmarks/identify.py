@@ -31,7 +31,7 @@ from limbstiff.analysis import analyze, identification_summary, identify_trial  
 from limbstiff.protocol import Protocol  # noqa: E402
 from limbstiff.simulate import simulate  # noqa: E402
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "reklab-ankle"
+REAL = Path(__file__).resolve().parents[1] / "data" / "reklab-ankle"
 SOURCE_MD = {"z_df": (0.0166, 1.35, 90.0), "z_df2": (0.0145, 0.79, 54.0), "z_df3": (0.0138, 1.45, 139.0),
              "z_pf": (0.0165, 0.65, 69.0), "z_pf2": (0.0149, 1.48, 127.0)}
 

@@ -279,6 +279,8 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     ident = _mechanics(filtered, protocol, seed=seed, where=where)
     estimate = _estimate(filtered, protocol, derived, ident)
     observable = _observable(filtered, derived)
+    if trial.bridged is not None and len(trial.bridged) == len(observable):
+        observable &= ~trial.bridged           # interpolated across a gap in the file: not data
     if not np.all(np.isfinite(estimate.stiffness)):
         raise TrialError(where, f"the {protocol.discretisation} observer diverged with gain "
                                 f"{derived.observer_gain:.3g} (use the exact discretisation or a lower gain)")

@@ -88,7 +88,7 @@ class Protocol:
         Field separator of text files; ``auto`` detects it from the header line (``"tab"``
         is accepted for ``"\\t"``).
     decimal : {"auto", ".", ","}
-        Decimal mark of text files; ``auto`` takes ``,`` for semicolon-separated files whose
+        Decimal mark of text files; ``auto`` takes ``,`` for semicolon- or tab-separated files whose
         numbers are written with a comma (``1,25``), else ``.``.
     unit_row : bool or "auto"
         Whether text files have a row of units under the header (``s``, ``deg``, ``Nm``…);
@@ -96,6 +96,13 @@ class Protocol:
     sample_rate_hz : float or None, Hz
         Sampling rate of MAT files that have no time variable (the time base is then built
         from it); None: such files must carry their own rate (a scalar ``fs`` variable).
+    encoding : str
+        Text encoding of text files (a Python codec name such as ``cp1252``); ``auto`` reads
+        UTF-8 and, when a file is not UTF-8, Windows-1252 (Latin-1 where that fails) with a
+        warning.
+    max_gap_s : float or None, s
+        Longest gap in the time column bridged by interpolation (marked unobservable); None:
+        from the data (:func:`limbstiff.files.validate.default_max_gap`).
     variant : {"auto", "external", "direct"}
         Observer variant; ``auto`` takes ``direct`` when an elastic torque is recorded.
     estimator : str
@@ -138,6 +145,8 @@ class Protocol:
     decimal: str = "auto"
     unit_row: bool | str = "auto"
     sample_rate_hz: float | None = None
+    encoding: str = "auto"
+    max_gap_s: float | None = None
     variant: str = "auto"
     estimator: str = "kalman"
     observer_gain: float | None = None
@@ -182,7 +191,7 @@ class Protocol:
 # TOML layout: section -> {key in file: Protocol field}
 _SECTIONS = {
     "format": {"delimiter": "delimiter", "decimal": "decimal", "unit_row": "unit_row",
-               "sample_rate_hz": "sample_rate_hz"},
+               "sample_rate_hz": "sample_rate_hz", "encoding": "encoding", "max_gap_s": "max_gap_s"},
     "observer": {"variant": "variant", "estimator": "estimator", "gain": "observer_gain",
                  "discretisation": "discretisation"},
     "signals": {"derivatives": "derivatives", "bandwidth_hz": "bandwidth_hz",
@@ -193,7 +202,7 @@ _SECTIONS = {
     "report": {"ci_level": "ci_level"},
 }
 # Settings for which "auto" (None) means: derive from each trial's data.
-_AUTO = {"observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping", "sample_rate_hz"}
+_AUTO = {"observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping", "sample_rate_hz", "max_gap_s"}
 _TOP = {"name", "description", "columns", "priors", *_SECTIONS}
 
 
@@ -298,7 +307,8 @@ def _check(p: Protocol) -> None:
                           ("discretisation", DISCRETISATIONS), ("derivatives", DERIVATIVES)):
         if getattr(p, name) not in allowed:
             raise ProtocolError(where, f"'{name}' must be one of {', '.join(allowed)}, not {getattr(p, name)!r}")
-    for name in ("observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping", "sample_rate_hz"):
+    for name in ("observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping", "sample_rate_hz",
+                 "max_gap_s"):
         _positive(p, name)
     _check_format(p, where)
     for name in ("prefilter_time_constant", "dirty_derivative_time_constant"):
@@ -332,6 +342,13 @@ def _check_format(p: Protocol, where) -> None:
         raise ProtocolError(where, f"'unit_row' in [format] must be true, false or \"auto\", not {p.unit_row!r}")
     if p.delimiter == "," and p.decimal == ",":
         raise ProtocolError(where, "[format] delimiter and decimal cannot both be ','")
+    if p.encoding != "auto":
+        import codecs
+        try:
+            codecs.lookup(str(p.encoding))
+        except (LookupError, TypeError):
+            raise ProtocolError(where, f"'encoding' in [format] is not a known text encoding: {p.encoding!r} "
+                                       "(for example \"utf-8\", \"cp1252\", \"latin-1\")") from None
 
 
 def _check_prior(where, label, prior: Prior) -> None:

@@ -67,6 +67,9 @@ class Trial:
         SHA-256 of that file's bytes.
     warnings : tuple of str
         What was noticed while reading (resampling, ignored columns…).
+    bridged : ndarray of bool, shape (n,), or None
+        True where the samples were interpolated across a gap in the file's time column: the
+        analysis treats them as not informed by motion.
     """
 
     name: str
@@ -80,6 +83,7 @@ class Trial:
     source: str | None = None
     source_sha256: str | None = None
     warnings: tuple[str, ...] = ()
+    bridged: np.ndarray | None = None
 
     def __post_init__(self):
         where = self.source or self.name
@@ -108,6 +112,12 @@ class Trial:
             raise TrialError(where, f"time is not strictly increasing at sample {k}")
         if np.ptp(dt) > 1e-6 * np.median(dt):
             raise TrialError(where, "time base is not uniform (resample it first)")
+        if self.bridged is not None:
+            mask = np.asarray(self.bridged, dtype=bool)
+            if mask.shape != (n,):
+                raise TrialError(where, f"'bridged' has {mask.size} samples, time has {n}")
+            mask.setflags(write=False)
+            object.__setattr__(self, "bridged", mask)
         object.__setattr__(self, "metadata", FrozenDict(self.metadata))
         object.__setattr__(self, "warnings", tuple(self.warnings))
 
@@ -141,7 +151,7 @@ class Trial:
         part = slice(start, stop)
         return replace(self, time=self.time[part], angle=self.angle[part],
                        **{k: None if getattr(self, k) is None else getattr(self, k)[part]
-                          for k in ("torque", "elastic_torque", "stiffness_true")})
+                          for k in ("torque", "elastic_torque", "stiffness_true", "bridged")})
 
     @property
     def units(self) -> Mapping[str, str]:

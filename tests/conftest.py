@@ -8,7 +8,8 @@ import pytest
 from limbstiff.files import write_trial
 from limbstiff.trial import Trial
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "reklab-ankle"
+#: The five real ankle recordings, in the repository (GPL-2.0, outside the installed package).
+REAL = Path(__file__).resolve().parents[1] / "data" / "reklab-ankle"
 PROTOCOLS = Path(__file__).resolve().parents[1] / "protocols"
 
 

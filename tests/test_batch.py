@@ -57,7 +57,7 @@ def test_resume_after_a_killed_batch(trial_file, tmp_path):
 
     res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume")
     assert res.exit_code == 0, res.output
-    assert f"({len(done)} up to date, skipped)" in res.output
+    assert f"({len(done)} up to date, skipped; --overwrite to redo)" in res.output
     assert all((out / name / "summary.json").stat().st_mtime_ns == stamps[name] for name in done)
     assert all(_complete(out / f"t{i}", 2000) for i in range(6))
     table = pd.read_csv(out / "summary.csv")
@@ -74,7 +74,7 @@ def test_resume_redoes_a_changed_input_only_with_overwrite(trial_file, tmp_path)
     assert res.exit_code == 1
     assert "t1.csv: outputs in" in res.output and "another input or other settings" in res.output
     res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume", "--overwrite")
-    assert res.exit_code == 0 and "(1 up to date, skipped)" in res.output
+    assert res.exit_code == 0 and "(1 up to date, skipped; --overwrite to redo)" in res.output
     assert json.loads((out / "t1" / "summary.json").read_text())["metadata"]["seed"] == "7"
     # other settings are another run: a changed seed is not "up to date"
     res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume", "--seed", 3)
@@ -134,3 +134,51 @@ def test_folders_are_searched_for_every_trial_format(tmp_path):
         (tmp_path / name).write_text("x")
     assert [p.name for p in discover([tmp_path])] == ["a.csv", "b.TSV", "c.mat"]
     assert [p.name for p in discover([tmp_path / "README.txt"])] == ["README.txt"]     # named: taken
+
+
+def _stamps(out):
+    return {p: p.stat().st_mtime_ns for p in sorted(out.rglob("*")) if p.is_file() and p.name != "summary.csv"}
+
+
+def test_summary_csv_is_the_folders_table_across_runs(trial_file, tmp_path):
+    # plain run, then --resume with one more trial, then the plain command again: every trial
+    # keeps its `ok` row and no trial's outputs are touched by a run that had nothing to do
+    folder = _folder(trial_file, tmp_path, 2)
+    out = tmp_path / "out"
+    assert run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1).exit_code == 0
+    before = _stamps(out)
+    trial_file("t2", folder=folder, seed=2)
+    res = run("analyze", folder / "t2.csv", "--out", out, "--no-pdf", "--jobs", 1, "--resume")
+    assert res.exit_code == 0, res.output
+    table = pd.read_csv(out / "summary.csv")
+    assert list(table["trial"]) == ["t2", "t0", "t1"] and set(table["status"]) == {"ok"}
+    assert all(_stamps(out)[p] == t for p, t in before.items())
+    before = _stamps(out)
+    res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1)
+    assert res.exit_code == 0 and "(3 up to date, skipped; --overwrite to redo)" in res.output
+    table = pd.read_csv(out / "summary.csv")
+    assert list(table["trial"]) == ["t0", "t1", "t2"] and set(table["status"]) == {"ok"}
+    assert set(table["resumed"]) == {1} and _stamps(out) == before
+
+
+def test_a_missing_path_among_good_ones_is_a_failed_row(trial_file, tmp_path):
+    out = tmp_path / "out"
+    res = run("analyze", trial_file("t1"), tmp_path / "nope.csv", "--out", out, "--no-pdf", "--jobs", 1)
+    assert res.exit_code == 1 and "Traceback" not in res.output
+    table = pd.read_csv(out / "summary.csv").set_index("trial")
+    assert table.loc["t1", "status"] == "ok" and table.loc["nope", "status"] == "failed"
+    assert "nope.csv: no such file or folder" in table.loc["nope", "error"]
+    # nothing at all to do is still a usage error
+    assert run("analyze", tmp_path / "nope.csv", "--out", out).exit_code == 2
+
+
+def test_an_output_folder_that_cannot_be_written_is_a_usage_error(trial_file, tmp_path):
+    path = trial_file("t1")
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    for out in (blocker, blocker / "sub", "/proc/limbstiff-out"):
+        res = run("analyze", path, "--out", out, "--no-pdf", "--jobs", 1)
+        lines = res.output.strip().splitlines()
+        assert res.exit_code == 2 and len(lines) == 1 and "Traceback" not in res.output, res.output
+        assert lines[0].startswith("limbstiff: error: ") and str(out) in lines[0] and "--out" in lines[0]
+    assert not (tmp_path / "t1").exists()                      # checked before the trial ran

@@ -121,8 +121,6 @@ def test_report_pdf_is_written(trial_file, tmp_path):
 
 def test_reklab_protocol_on_real_file(tmp_path):
     from .conftest import REAL
-    if not REAL.exists():
-        pytest.skip("real ankle data not present")
     out = tmp_path / "out"
     res = run("analyze", REAL / "z_df.csv", "--protocol", PROTOCOLS / "reklab-ankle.toml", "--out", out,
               "--no-pdf")

@@ -20,7 +20,7 @@ from limbstiff.files.units import parse_standard_header, to_si, unit_in_header
 from limbstiff.protocol import protocol_from_dict
 from limbstiff.trial import MIN_SAMPLES, Trial
 
-REKLAB = Path(__file__).resolve().parents[2] / "shared/data/real/reklab-ankle"
+from .conftest import REAL as REKLAB  # noqa: E402
 
 
 def signals(n=200, dt=0.005):
@@ -164,8 +164,6 @@ def test_protocol_translational_kind(tmp_path):
 
 
 def test_reklab_real_file():
-    if not REKLAB.is_dir():
-        pytest.skip("reklab-ankle data not available")
     path = REKLAB / "z_df.csv"
     protocol = protocol_from_dict({"columns": {
         "angle": {"header": "position_rad", "unit": "rad"},
@@ -237,9 +235,14 @@ def test_unreadable(tmp_path):
 
 
 def test_not_utf8(tmp_path):
+    # a Windows export: read as Windows-1252 with a warning, never refused
     path = tmp_path / "latin.csv"
-    path.write_bytes("# subject: Jos\xe9\ntime_s,angle_rad,torque_Nm\n".encode("latin-1"))
-    expect_error(path, "not UTF-8 text (byte 0xe9 at line 1)")
+    t, a, tau = signals()
+    rows = "\n".join(f"{x},{y},{z}" for x, y, z in zip(t, a, tau))
+    path.write_bytes(("# subject: Jos\xe9\ntime_s,angle_rad,torque_Nm\n" + rows + "\n").encode("latin-1"))
+    trial = read_trial(path)
+    assert trial.metadata["subject"] == "José"
+    assert "not UTF-8 text (byte 0xe9 at line 1): read as Windows-1252" in trial.warnings[0]
 
 
 @pytest.mark.parametrize("content, phrase", [
@@ -257,7 +260,7 @@ def test_bad_structure(tmp_path, content, phrase):
 
 
 @pytest.mark.parametrize("header, phrase", [
-    ("t,angle_rad,torque_Nm", "no time column (expected time_s or time_ms; headers found: t, angle_rad"),
+    ("t,angle_rad,torque_Nm", "no time column (expected time_s, time_ms or 'Time (s)'; headers found: t, angle_rad"),
     ("time_s,theta,torque_Nm", "no angle or position column"),
     ("time_s,angle_rad,tau", "no torque or force column"),
     ("time_s,angle_grad,torque_Nm", "column 'angle_grad': unknown unit 'grad' for angle (accepted: rad, deg"),
@@ -301,8 +304,14 @@ def test_bad_cell_in_unused_column_is_ignored(tmp_path):
 def test_gap(tmp_path):
     t, a, tau = signals()
     t = np.where(t > 0.5, t + 0.25, t)
+    # longer than a quarter of the motion's period (0.156 s here): refused, naming the setting
     expect_error(write_csv(tmp_path / "gap.csv", "time_s,angle_rad,torque_Nm", [t, a, tau]),
-                 "gap in time at line 103: 0.255 s without samples after t = 0.5 s (median step 0.005 s)")
+                 "gap in time at line 103: 0.255 s without samples after t = 0.5 s, longer than the longest "
+                 "bridged gap max_gap_s = 0.156 s (from the data: a quarter of the motion's period); set "
+                 "[format] max_gap_s in a protocol")
+    # bridged when the protocol allows it, and marked as not data
+    trial = read_trial(tmp_path / "gap.csv", protocol_from_dict({"format": {"max_gap_s": 0.3}}))
+    assert abs(trial.bridged.sum() - 0.255 / 0.005) <= 1 and "1 gap(s) in time bridged" in trial.warnings[0]
 
 
 @pytest.mark.parametrize("n, dt, phrase", [

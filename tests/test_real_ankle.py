@@ -1,4 +1,4 @@
-"""The five real ankle recordings (../shared/data/real/reklab-ankle), against SOURCE.md.
+"""The five real ankle recordings (data/reklab-ankle), against SOURCE.md.
 
 SOURCE.md's reference values (least squares with a delayed reflex term, ±20–30 %):
 z_df I 0.0166 B 1.35 K 90; z_df2 I 0.0145 B 0.79 K 54; z_df3 I 0.0138 B 1.45 K 139;
@@ -15,8 +15,6 @@ from .conftest import PROTOCOLS, REAL
 
 REFERENCE = {"z_df": (0.0166, 1.35, 90.0), "z_df2": (0.0145, 0.79, 54.0), "z_df3": (0.0138, 1.45, 139.0),
              "z_pf": (0.0165, 0.65, 69.0), "z_pf2": (0.0149, 1.48, 127.0)}
-
-pytestmark = pytest.mark.skipif(not REAL.exists(), reason="real ankle data not present")
 
 
 @pytest.fixture(scope="module")

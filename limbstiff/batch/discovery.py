@@ -21,17 +21,25 @@ class NothingToDo(LimbstiffError):
     """No trial file was found in the paths given."""
 
 
-def discover(paths: Iterable[str | os.PathLike], *, extensions: tuple[str, ...] = FOLDER_EXTENSIONS) -> list[Path]:
+def discover(paths: Iterable[str | os.PathLike], *, extensions: tuple[str, ...] = FOLDER_EXTENSIONS,
+             missing: list[tuple[str, str]] | None = None) -> list[Path]:
     """Trial files named by ``paths``: files, folders (searched recursively) or globs.
 
     Folders are searched for files whose extension is in ``extensions`` (case-insensitive);
     files named explicitly or matched by a glob are taken whatever their extension (the reader
     says if it cannot read one).
 
+    Parameters
+    ----------
+    missing : list, optional
+        When given, a path that matches nothing is appended to it as (path, one-line reason)
+        instead of stopping the batch: the other trials still run and the missing one is a
+        failed row of ``summary.csv``.
+
     Raises
     ------
     NothingToDo
-        When a path matches nothing, or nothing at all is found.
+        When a path matches nothing (and ``missing`` is not given), or nothing at all is found.
     """
     found: list[Path] = []
     for raw in paths:
@@ -40,17 +48,23 @@ def discover(paths: Iterable[str | os.PathLike], *, extensions: tuple[str, ...] 
         if p.is_dir():
             found += sorted(q for q in p.rglob("*") if q.is_file() and q.suffix.lower() in extensions
                             and not q.name.startswith("."))
-        elif p.is_file():
+            continue
+        if p.is_file():
             found.append(p)
-        elif glob.has_magic(text):
+            continue
+        why = None
+        if glob.has_magic(text):
             matches = sorted(Path(q) for q in glob.glob(text, recursive=True) if Path(q).is_file())
-            if not matches:
-                raise NothingToDo(f"{text}: no file matches this pattern")
             found += matches
+            why = None if matches else f"{text}: no file matches this pattern"
         else:
-            raise NothingToDo(f"{text}: no such file or folder")
+            why = f"{text}: no such file or folder"
+        if why and missing is None:
+            raise NothingToDo(why)
+        if why:
+            missing.append((text, why))
     unique = list(dict.fromkeys(q.resolve() for q in found))
-    if not unique:
+    if not unique and not missing:
         raise NothingToDo("no trial files found (folders are searched for "
                           + ", ".join(f"*{e}" for e in extensions) + ")")
     return unique
@@ -75,3 +89,31 @@ def output_names(files: Sequence[Path]) -> tuple[list[str], list[str]]:
         used.add(name)
         names.append(name)
     return names, notes
+
+
+class OutputFolderError(LimbstiffError):
+    """The output folder cannot be made or written (a usage error: exit status 2)."""
+
+
+def writable_folder(out: str | os.PathLike) -> Path:
+    """``out``, made if needed, once a file has been written in it and removed; checked before any
+    trial runs, so that a batch never analyses for nothing.
+
+    Raises
+    ------
+    OutputFolderError
+        One line naming the folder, the reason and what to do.
+    """
+    import tempfile
+
+    path = Path(out)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path, prefix=".limbstiff-probe-"):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        if isinstance(exc, FileExistsError) or (path.exists() and not path.is_dir()):
+            reason = "it is a file, not a folder"
+        raise OutputFolderError(f"{path}: cannot write the output folder ({reason}); choose another --out") from None
+    return path

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
-from .discovery import discover, output_names
+from .discovery import NothingToDo, discover, output_names, writable_folder
 from .runner import BatchJob, TrialOutcome, run_jobs, run_one
-from .table import up_to_date, write_summary_csv
+from .table import folder_outcomes, up_to_date, write_summary_csv
 from ..errors import LimbstiffError
 from ..protocol import Protocol
 
@@ -74,8 +74,8 @@ def _clear_or_refuse(job: BatchJob, marker: str) -> None:
         return
     opts = job.options
     if not opts["overwrite"]:
-        why = ("were made from another input or other settings" if opts.get("resume")
-               else "already exist")
+        why = ("were made from another input or other settings, or lack a file this run writes"
+               if marker == "summary.json" else "already exist")
         raise LimbstiffError(f"{job.source}: outputs in {job.out} {why} (use --overwrite to replace them)")
     (job.out / marker).unlink()
 
@@ -89,9 +89,11 @@ def _analyse_and_write(job: BatchJob) -> dict:
 
     opts = job.options
     files = [STIFFNESS_CSV, SUMMARY_JSON] + ([REPORT_PDF] if opts["pdf"] else [])
-    if opts.get("resume"):
+    if opts.get("resume") or not opts["overwrite"]:
+        # current outputs are kept unless --overwrite alone asks to redo them: a re-run of the same
+        # command is a no-op, and --resume --overwrite redoes only what changed
         done = up_to_date(job.out, source_sha256=sha256_file(job.source), run_sha256=opts["run_sha256"],
-                                files=files)
+                          files=files)
         if done is not None:
             return dict(done, resumed=True)
     _clear_or_refuse(job, SUMMARY_JSON)
@@ -110,26 +112,38 @@ def _analyse_and_write(job: BatchJob) -> dict:
                                                 "run_sha256": opts["run_sha256"]})
 
 
-def _run(paths, work, options, *, out, jobs, progress) -> BatchReport:
+def _run(paths, work, options, *, out, jobs, progress, marker: str) -> BatchReport:
     """Discover the trials, run ``work`` on each (one failure never stops the others), and keep
-    ``summary.csv`` current after every finished trial, so an interrupted run leaves it true."""
-    files = discover(paths)
+    ``summary.csv`` current after every finished trial, so an interrupted run leaves it true.
+
+    ``summary.csv`` is the folder's table: besides this run's trials it keeps a row for every
+    trial of an earlier run whose complete outputs (``marker`` written) are in the folder. A
+    path that matches nothing is a failed row; the output folder is checked before any trial.
+    """
+    missing: list[tuple[str, str]] = []
+    files = discover(paths, missing=missing)
+    if not files:
+        raise NothingToDo("; ".join(why for _, why in missing))
+    out = writable_folder(out)
     names, notes = output_names(files)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
+    lost = [TrialOutcome(Path(text).stem, text, "failed", why) for text, why in missing]
     finished: dict[str, TrialOutcome] = {}
+
+    def table(current):
+        rows = current + lost
+        return rows + folder_outcomes(out, marker, exclude={o.trial for o in rows})
 
     def record(outcome, done, total):
         finished[outcome.trial] = outcome
-        write_summary_csv(out / SUMMARY_CSV, [finished[n] for n in names if n in finished])
+        write_summary_csv(out / SUMMARY_CSV, table([finished[n] for n in names if n in finished]))
         if progress:
             progress(outcome, done, total)
 
     outcomes = run_jobs(jobs_list, functools.partial(run_one, analyse_and_write=work),
-                              n_jobs=jobs, progress=record)
-    write_summary_csv(out / SUMMARY_CSV, outcomes)
-    return BatchReport(outcomes=tuple(outcomes), out=out, notes=tuple(notes))
+                        n_jobs=jobs, progress=record)
+    write_summary_csv(out / SUMMARY_CSV, table(outcomes))
+    return BatchReport(outcomes=tuple(outcomes + lost), out=out, notes=tuple(notes))
 
 
 def _identify_and_write(job: BatchJob) -> dict:
@@ -162,7 +176,7 @@ def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     ``OUT/<trial>/draws.csv`` (posterior draws) and ``OUT/summary.csv``.
     """
     options = {"protocol": protocol or Protocol(), "seed": seed, "overwrite": overwrite}
-    return _run(paths, _identify_and_write, options, out=out, jobs=jobs, progress=progress)
+    return _run(paths, _identify_and_write, options, out=out, jobs=jobs, progress=progress, marker="posterior.json")
 
 
 def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",
@@ -209,7 +223,7 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     protocol = protocol or Protocol()
     options = {"protocol": protocol, "seed": seed, "pdf": pdf, "overwrite": overwrite, "resume": resume,
                "reference": reference, "run_sha256": run_fingerprint(protocol, seed=seed, reference=reference)}
-    report = _run(paths, _analyse_and_write, options, out=out, jobs=jobs, progress=progress)
+    report = _run(paths, _analyse_and_write, options, out=out, jobs=jobs, progress=progress, marker="summary.json")
     if pdf:
         report = _overview(report, protocol, sort_by)
     return report

@@ -90,3 +90,22 @@ def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: I
     if not all((directory / f).is_file() for f in files):
         return None
     return summary
+
+
+def folder_outcomes(out: Path, marker: str, *, exclude: set[str]) -> list[TrialOutcome]:
+    """The rows of trials of earlier runs kept in ``out``: every sub-folder whose ``marker``
+    (``summary.json`` or ``posterior.json``, written last) is there and readable, read back from
+    it, in name order; those named in ``exclude`` (this run's) are left out. They count as up to
+    date (``resumed`` 1): this run did not touch them."""
+    rows = []
+    for path in sorted(Path(out).glob(f"*/{marker}")):
+        name = path.parent.name
+        if name in exclude:
+            continue
+        try:
+            summary = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        if isinstance(summary, dict):
+            rows.append(TrialOutcome(name, str(summary.get("source", "")), "ok", "", summary, resumed=True))
+    return rows

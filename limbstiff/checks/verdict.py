@@ -7,7 +7,7 @@ may be biased) or ``unreliable`` (do not use the stiffness).
 
 The thresholds were set on simulated trials (elbow, wrist and ankle, clean and with each of the
 simulator's ten effects; seeds other than the benchmark's) and on the five real ankle trials
-(``shared/data/real/reklab-ankle``), so that clean trials and the trials the model fits (z_df,
+(``data/reklab-ankle``), so that clean trials and the trials the model fits (z_df,
 z_df3, whose stiffness matches the least-squares reference of SOURCE.md) pass while the trial
 the model does not fit (z_pf: a quarter of its stiffness negative) fails. The figures behind
 each are in the constants' comments; ``benchmarks/checks.py`` measures the false-alarm and

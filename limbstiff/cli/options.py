@@ -29,7 +29,7 @@ def finish(report):
         click.echo(f"limbstiff: note: {note}", err=True)
     n = len(report.outcomes)
     resumed = sum(getattr(o, "resumed", False) for o in report.outcomes)
-    skipped = f" ({resumed} up to date, skipped)" if resumed else ""
+    skipped = f" ({resumed} up to date, skipped; --overwrite to redo)" if resumed else ""
     click.echo(f"{n - report.n_failed} of {n} trials done{skipped}; outputs in {report.out}", err=True)
     sys.exit(report.exit_status if n else EXIT_USAGE)
 
@@ -41,7 +41,7 @@ def n_jobs(jobs):
 
 
 def out_option(default: str):
-    return click.option("--out", "out", type=click.Path(file_okay=False), default=default,
+    return click.option("--out", "out", type=click.Path(), default=default,
                         show_default=True, help="Output folder.")
 
 

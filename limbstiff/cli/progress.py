@@ -64,7 +64,7 @@ class Progress:
 def _mark(outcome) -> str:
     if outcome.status != "ok":
         return f"FAILED: {outcome.error}"
-    return "up to date, skipped" if getattr(outcome, "resumed", False) else "ok"
+    return "up to date; --overwrite to redo" if getattr(outcome, "resumed", False) else "ok"
 
 
 def _clock(seconds: float) -> str:

@@ -88,17 +88,30 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
     file = _Listing(where, noun, list(headers), row,
                     f"{'headers' if noun == 'column' else noun + 's'} found: {found}")
     standard = _standard_headers(where, headers, row, claimed, noun)
+    covered = _covered(mapped)
     columns: dict[str, ColumnSpec] = {}
     for field in FIELDS:
         spec = mapped.get(field)
         if spec is not None and spec.header is not None:
             columns[field] = _mapped_column(file, field, spec, columns)
             continue
-        column = _standard_column(file, field, spec, standard)
+        if field in covered:
+            continue
+        column = _standard_column(file, field, spec, standard, lenient=bool(claimed))
         if column is not None:
             columns[field] = column
     _check_complete(file, columns, need_time)
     return columns
+
+
+def _covered(mapped) -> set[str]:
+    """Fields a protocol's ``[columns]`` settles, so that no other column is read for them: the
+    ones it names a header for, and both torques when it names either (a logger's unmapped
+    ``torque_in`` beside a mapped ``torque_out`` is ignored, never read as a torque in 'in')."""
+    named = {field for field, spec in mapped.items() if spec.header is not None}
+    if named & {"torque", "elastic_torque"}:
+        named |= {"torque", "elastic_torque"}
+    return named
 
 
 class _Listing(NamedTuple):
@@ -158,8 +171,8 @@ def _mapped_column(file: _Listing, field: str, spec, columns: dict[str, ColumnSp
     return ColumnSpec(field, header, index, unit, spec.scale)
 
 
-def _standard_column(file: _Listing, field: str, spec,
-                     standard: dict[int, tuple[str, str]]) -> ColumnSpec | None:
+def _standard_column(file: _Listing, field: str, spec, standard: dict[int, tuple[str, str]], *,
+                     lenient: bool = False) -> ColumnSpec | None:
     """The one standard header holding ``field``, or None when there is none.
 
     Parameters
@@ -171,10 +184,13 @@ def _standard_column(file: _Listing, field: str, spec,
         Without a ``header``; its ``unit`` and ``scale``, if any, override the header's.
     standard : dict of int to (str, str)
         (quantity, unit) of the unclaimed standard headers, by index.
+    lenient : bool
+        The protocol maps columns: a header that only looks standard (its unit unknown) is
+        left alone (the reader lists it as ignored) instead of being an error.
     """
     where, noun, label = file.where, file.noun, _LABELS[field]
     candidates = [(i, q, u) for i, (q, u) in standard.items()
-                  if STANDARD_QUANTITIES[q].field == field]
+                  if STANDARD_QUANTITIES[q].field == field and not (lenient and u not in UNITS)]
     if not candidates:
         return None
     if len(candidates) > 1:
@@ -197,14 +213,42 @@ def _standard_column(file: _Listing, field: str, spec,
 def _check_complete(file: _Listing, columns: dict[str, ColumnSpec], need_time: bool) -> None:
     """Error unless time (if needed), angle, and torque or elastic torque were all found."""
     where, noun, found = file.where, file.noun, file.found
+    hint = _protocol_hint(file, columns)
     if need_time and "time" not in columns:
-        raise TrialError(where, f"no time {noun} (expected time_s or time_ms; {found})")
+        raise TrialError(where, f"no time {noun} (expected time_s, time_ms or 'Time (s)'; {found}){hint}")
     if "angle" not in columns:
         raise TrialError(where, f"no angle or position {noun} (expected angle_rad, angle_deg, "
-                                f"position_m or position_mm; {found})")
+                                f"position_m, position_mm or 'Angle (deg)'; {found}){hint}")
     if "torque" not in columns and "elastic_torque" not in columns:
         raise TrialError(where, f"no torque or force {noun} (expected torque_Nm, force_N, "
-                                f"elastic_torque_Nm or elastic_force_N; {found})")
+                                f"elastic_torque_Nm, elastic_force_N or 'Torque (Nm)'; {found}){hint}")
+
+
+#: Words that suggest which quantity a free-form header holds, for the protocol hint only
+#: (never used to read a file: a protocol must say it).
+_GUESS = {"time": ("time", "zeit", "temps", "tiempo", "t", "sec", "seconds"),
+          "angle": ("angle", "position", "pos", "displacement", "disp", "theta", "winkel", "q"),
+          "torque": ("torque", "moment", "force", "tau", "load", "drehmoment")}
+
+
+def _protocol_hint(file: _Listing, columns: dict[str, ColumnSpec]) -> str:
+    """A ready-to-paste protocol line (TOML) mapping the file's likely columns, after
+    '; a protocol can map them: '; empty when the file has no headers to map."""
+    entries = []
+    for field, words in _GUESS.items():
+        if field in columns:
+            continue
+        index = next((i for i, h in enumerate(file.headers)
+                      if h and (h.strip().lower().replace("_", " ").split() or [""])[0].strip("([") in words), None)
+        if index is None:
+            continue
+        header = file.headers[index]
+        unit = file.row[index] or unit_in_header(header) or "?"
+        entries.append(f'{field} = {{ header = "{header}", unit = "{unit}" }}')
+    if not entries:
+        return ""
+    return ("; a protocol can map them (--protocol FILE with, for example, the line: columns = { "
+            + ", ".join(entries) + " }; check each unit)")
 
 
 def _standard_headers(where, headers, row, claimed, noun) -> dict[int, tuple[str, str]]:

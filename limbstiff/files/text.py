@@ -67,7 +67,10 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
         With a one-line message naming the file and the problem.
     """
     where = str(path)
-    text = _decode(where, raw)
+    text, notes = _decode(where, raw, getattr(protocol, "encoding", "auto"))
+    source_bytes = raw
+    if notes or getattr(protocol, "encoding", "auto") not in ("auto", "utf-8", "utf-8-sig", "utf8"):
+        raw = text.encode("utf-8")          # the row reader and its byte offsets work on UTF-8
     body = _body(text, raw)
     if body is None:   # blank lines or bare CR line ends among the rows: line by line
         metadata, header_line, rest = _split(where, text)
@@ -79,8 +82,8 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     kind = joint_kind(where, columns)
     numbers, source = _data_rows(raw, body, layout.rows, skipped=len(rest) - len(layout.rows))
     values = _parse(where, layout.headers, columns, source, numbers, layout.delimiter, layout.decimal)
-    return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
-                         warnings=_ignored(layout.headers, columns), locate=lambda k: f"line {numbers[k]}")
+    return checked_trial(path, source_bytes, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
+                         warnings=notes + _ignored(layout.headers, columns), locate=lambda k: f"line {numbers[k]}")
 
 
 class _Layout(NamedTuple):
@@ -158,16 +161,40 @@ def _ignored(headers: list[str], columns: dict[str, ColumnSpec]) -> list[str]:
     return ["ignored column(s): " + ", ".join(f"'{h}'" for h in ignored)] if ignored else []
 
 
-def _decode(where: str, raw: bytes) -> str:
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise TrialError(where, f"not UTF-8 text (byte 0x{raw[exc.start]:02x} at line {line}); "
-                                f"save the file as UTF-8") from None
+def _decode(where: str, raw: bytes, encoding: str = "auto") -> tuple[str, list[str]]:
+    """The file's text and the warnings of its decoding.
+
+    ``auto``: UTF-8 (BOM tolerated); a file that is not UTF-8 — a Windows export, ``# subject:
+    Müller`` in cp1252 — is read as Windows-1252, or Latin-1 where cp1252 leaves a byte undefined,
+    with a warning that says so. Any other ``encoding`` (the protocol's ``[format] encoding``) is
+    used as given.
+    """
+    notes: list[str] = []
+    if encoding != "auto":
+        try:
+            text = raw.decode(encoding)
+        except UnicodeDecodeError as exc:
+            line = raw[:exc.start].count(b"\n") + 1
+            raise TrialError(where, f"not {encoding} text (byte 0x{raw[exc.start]:02x} at line {line}); "
+                                    f"check [format] encoding in the protocol") from None
+        text = text.lstrip("\ufeff")
+    else:
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            line = raw[:exc.start].count(b"\n") + 1
+            fallback = "cp1252"
+            try:
+                text = raw.decode(fallback)
+            except UnicodeDecodeError:
+                fallback = "latin-1"
+                text = raw.decode(fallback)
+            notes.append(f"not UTF-8 text (byte 0x{raw[exc.start]:02x} at line {line}): read as "
+                         f"{'Windows-1252' if fallback == 'cp1252' else 'Latin-1'}; set [format] encoding in "
+                         "a protocol if that is wrong")
     if not text.strip():
         raise TrialError(where, "empty file")
-    return text
+    return text, notes
 
 
 def _above_header(line: str, metadata: dict[str, str]) -> bool:
@@ -315,7 +342,7 @@ def _unit_row(where: str, rest, delimiter: str, setting):
 
 def _detect_decimal(where: str, rest, delimiter: str, setting: str) -> str:
     if setting == "auto":
-        if delimiter != ";":
+        if delimiter == ",":
             return "."
         sample = (c for _, line in rest[:_SNIFF_LINES] for c in _cells(line, delimiter))
         return "," if any(_DECIMAL_COMMA.match(c) for c in sample) else "."

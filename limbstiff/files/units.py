@@ -132,10 +132,12 @@ def accepted_units(dimensions: tuple[str, ...] | str) -> list[str]:
 
 
 def parse_standard_header(header: str) -> tuple[str, str] | None:
-    """Split a standard header ``<quantity>_<unit>``.
+    """Split a standard header: ``<quantity>_<unit>``, ``<Quantity> (<unit>)`` or
+    ``<Quantity> [<unit>]`` (a Windows export's ``Time (s)``, ``Torque [Nm]``).
 
-    The quantity is matched case-insensitively, longest first; the unit is returned as
-    written (it is not checked here).
+    The quantity is matched case-insensitively (spaces as ``_``), longest first; the unit is
+    returned as written (it is not checked here). Synonyms (``Moment``, ``Displacement``) are
+    not standard: a protocol maps them.
 
     Parameters
     ----------
@@ -147,6 +149,11 @@ def parse_standard_header(header: str) -> tuple[str, str] | None:
     (quantity, unit) or None
         None when the header does not start with a standard quantity followed by ``_``.
     """
+    match = _BRACKETED.search(header.strip())
+    if match:           # "Time (s)", "Angle [deg]", "Elastic torque (Nm)"
+        name = "_".join(header.strip()[:match.start()].lower().split())
+        if name in STANDARD_QUANTITIES:
+            return name, match.group(1)
     lowered = header.strip().lower()
     for quantity in _BY_LENGTH:
         prefix = quantity + "_"

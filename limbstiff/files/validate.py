@@ -75,21 +75,25 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
         Non-increasing time, a gap, too few samples or too short, no motion.
     """
     where = str(path)
-    time, angle = values["time"], values["angle"]
-    _check_time(where, time, locate)
+    _check_time(where, values["time"], locate)
+    values, gaps, notes = _trim_and_bridge(where, dict(values), protocol, locate)
+    angle = values["angle"]
     label = "angle" if kind == "rotational" else "position"
     distinct = np.unique(angle).size
     if distinct == 1:
         raise TrialError(where, f"no motion: {label} is constant ({angle[0]:g})")
     if distinct < 3:
         raise TrialError(where, f"no motion: {label} takes only {distinct} distinct values")
-    notes: list[str] = []
     values = _uniform(dict(values), notes)
     if protocol is not None and protocol.sample_period:
         values = _to_period(where, values, float(protocol.sample_period), notes)
+    grid = values["time"]
+    bridged = np.zeros(grid.size, dtype=bool)
+    for a, b in gaps:
+        bridged |= (grid > a) & (grid < b)
     return Trial(name=name if name is not None else path.stem, kind=kind, metadata=dict(metadata or {}),
                  source=where, source_sha256=hashlib.sha256(raw).hexdigest(),
-                 warnings=(*notes, *(warnings or ())), **values)
+                 warnings=(*notes, *(warnings or ())), bridged=bridged if gaps else None, **values)
 
 
 def _check_time(where: str, time: np.ndarray, locate: Callable[[int], str]) -> None:
@@ -102,11 +106,71 @@ def _check_time(where: str, time: np.ndarray, locate: Callable[[int], str]) -> N
         raise TrialError(where, f"trial too short: {time.size} samples (at least {MIN_SAMPLES} needed)")
     if time[-1] - time[0] < MIN_DURATION:
         raise TrialError(where, f"trial too short: {time[-1] - time[0]:.3g} s (at least {MIN_DURATION:g} s needed)")
+
+
+#: Runs of samples at either end that hold fewer than this share of the trial (and fewer than
+#: :data:`EDGE_MIN_SAMPLES`) and are cut off by a gap are dropped: a logger's first sample written
+#: 0.2 s before the rest is not part of the recording.
+EDGE_FRACTION, EDGE_MIN_SAMPLES = 0.01, 10
+#: The default longest bridged gap, as a share of the motion's typical period (the angle's
+#: crossings of its median): a gap that long is interpolated over a quarter of a cycle at most.
+GAP_PERIOD_FRACTION = 0.25
+
+
+def default_max_gap(time: np.ndarray, angle: np.ndarray) -> float:
+    """The longest gap bridged when the protocol does not say: :data:`GAP_PERIOD_FRACTION` of the
+    motion's typical period, s, estimated as twice the duration over the angle's crossings of its
+    median (with a hysteresis of 5 % of its 5–95 % spread, so that encoder dither does not count),
+    and at least :data:`GAP_FACTOR` median steps."""
+    y = np.asarray(angle, dtype=float) - float(np.median(angle))
+    band = 0.05 * float(np.subtract(*np.percentile(y, [95, 5])))
+    state = np.where(y > band, 1, np.where(y < -band, -1, 0))
+    signs = state[state != 0]
+    crossings = int(np.count_nonzero(np.diff(signs))) if signs.size else 0
+    duration = float(time[-1] - time[0])
+    period = 2.0 * duration / crossings if crossings else duration
+    return max(GAP_PERIOD_FRACTION * period, GAP_FACTOR * float(np.median(np.diff(time))))
+
+
+def _trim_and_bridge(where: str, values: dict, protocol, locate) -> tuple[dict, list, list[str]]:
+    """Drop isolated samples cut off at either end by a gap; refuse a gap longer than the
+    longest bridged one; return the gaps left (to be interpolated over) as (t_before, t_after).
+
+    A gap is a step longer than :data:`GAP_FACTOR` median steps.
+    """
+    time = values["time"]
+    step = np.diff(time)
     median = float(np.median(step))
-    if np.any(step > GAP_FACTOR * median):
-        k = int(np.flatnonzero(step > GAP_FACTOR * median)[0])
-        raise TrialError(where, f"gap in time at {locate(k + 1)}: {step[k]:.6g} s without samples "
-                                f"after t = {time[k]:.9g} s (median step {median:.6g} s)")
+    gaps = np.flatnonzero(step > GAP_FACTOR * median)
+    if not gaps.size:
+        return values, [], []
+    n, notes = time.size, []
+    edge = max(EDGE_MIN_SAMPLES, int(EDGE_FRACTION * n))
+    start = int(gaps[0]) + 1 if gaps[0] + 1 < edge else 0
+    stop = int(gaps[-1]) + 1 if n - gaps[-1] - 1 < edge and gaps[-1] + 1 > start else n
+    if start or stop < n:
+        notes.append(f"{start + n - stop} isolated sample(s) dropped at the "
+                     f"{'start and end' if start and stop < n else 'start' if start else 'end'} of the "
+                     "file (cut off from the rest by a gap in time)")
+        values = {f: None if v is None else v[start:stop] for f, v in values.items()}
+        time = values["time"]
+        step = np.diff(time)
+        gaps = np.flatnonzero(step > GAP_FACTOR * float(np.median(step)))
+    given = getattr(protocol, "max_gap_s", None)
+    longest = float(given) if given else default_max_gap(time, values["angle"])
+    origin = "protocol" if given else "from the data: a quarter of the motion's period"
+    too_long = [int(k) for k in gaps if step[k] > longest]
+    if too_long:
+        k = too_long[0]
+        raise TrialError(where, f"gap in time at {locate(start + k + 1)}: {step[k]:.6g} s without samples after "
+                                f"t = {time[k]:.9g} s, longer than the longest bridged gap max_gap_s = "
+                                f"{longest:.3g} s ({origin}); set [format] max_gap_s in a protocol to bridge it, "
+                                "or split the file there")
+    if gaps.size:
+        notes.append(f"{gaps.size} gap(s) in time bridged by linear interpolation (longest {step[gaps].max():.3g} s, "
+                     f"{step[gaps].sum():.3g} s in all; max_gap_s {longest:.3g} s, {origin}); "
+                     "the bridged stretches count as not informed by motion")
+    return values, [(float(time[k]), float(time[k + 1])) for k in gaps], notes
 
 
 def _uniform(values: dict, warnings: list[str]) -> dict:

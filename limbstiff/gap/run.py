@@ -368,14 +368,21 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     Raises
     ------
     batch.NothingToDo
-        When no trial file is found.
+        When no trial file is found (a path that matches nothing, among others, is a failed
+        trial).
+    batch.discovery.OutputFolderError
+        When ``out`` cannot be written (checked before any trial runs).
     """
-    from ..batch.discovery import discover, output_names
+    from ..batch.discovery import NothingToDo, discover, output_names, writable_folder
     from ..batch.runner import BatchJob, run_jobs, run_one
     from ..files.outputs import write_json
 
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping)
-    files = discover(paths)
+    missing: list[tuple[str, str]] = []
+    files = discover(paths, missing=missing)
+    if not files:
+        raise NothingToDo("; ".join(why for _, why in missing))
+    out = writable_folder(out)                  # before any trial is read
     names, _ = output_names(files)
     work = [BatchJob(source=f, name=n, out=Path(out), options={"protocol": protocol, "seed": seed})
             for f, n in zip(files, names)]
@@ -383,8 +390,7 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
                         progress=progress)
     done = [o.row for o in outcomes if o.status == "ok"]
     trials, results = [r["trial"] for r in done], [r["result"] for r in done]
-    failed = [o.error for o in outcomes if o.status != "ok"]
-    out = Path(out)
+    failed = [o.error for o in outcomes if o.status != "ok"] + [why for _, why in missing]
     if not trials:
         return DiagnoseReport(None, out, tuple(failed))
     try:

@@ -1,7 +1,7 @@
 """Human-limb scenarios: elbow and wrist (torque-driven), ankle (position-driven).
 
 Values are typical of the joint-impedance literature (e.g. the Kearney lab ankle
-recordings, see ``/work/shared/data/real/reklab-ankle/SOURCE.md``); the elastic torque is
+recordings, see ``data/reklab-ankle/SOURCE.md`` in the repository); the elastic torque is
 s = σ₀(t)·(Δ + ε·Δ³) with Δ = y − y₀, so σ = σ₀(t)·(1 + 3ε·Δ²).
 """
 
