@@ -182,3 +182,10 @@ def test_an_output_folder_that_cannot_be_written_is_a_usage_error(trial_file, tm
         assert res.exit_code == 2 and len(lines) == 1 and "Traceback" not in res.output, res.output
         assert lines[0].startswith("limbstiff: error: ") and str(out) in lines[0] and "--out" in lines[0]
     assert not (tmp_path / "t1").exists()                      # checked before the trial ran
+
+
+def test_diagnose_checks_its_output_folder_first(trial_file, tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    res = run("diagnose", trial_file("t1"), "--out", blocker / "diag")
+    assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1 and "--out" in res.output
