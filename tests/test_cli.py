@@ -198,3 +198,10 @@ def test_identify_writes_posterior_and_draws(tmp_path):
     out2 = tmp_path / "id2"
     assert run("identify", path, "--out", out2, "--seed", 5, "--jobs", 1).exit_code == 0
     assert pd.read_csv(out2 / "elbow" / "draws.csv").equals(draws)
+    # the same command again: up to date, kept (not failed); another seed is another run
+    stamp = (out / "elbow" / "posterior.json").stat().st_mtime_ns
+    res = run("identify", path, "--out", out, "--seed", 5, "--jobs", 1)
+    assert res.exit_code == 0 and "1 up to date, skipped" in res.output
+    assert (out / "elbow" / "posterior.json").stat().st_mtime_ns == stamp
+    res = run("identify", path, "--out", out, "--seed", 6, "--jobs", 1)
+    assert res.exit_code == 1 and "another input or other settings" in res.output

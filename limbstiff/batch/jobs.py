@@ -74,8 +74,7 @@ def _clear_or_refuse(job: BatchJob, marker: str) -> None:
         return
     opts = job.options
     if not opts["overwrite"]:
-        why = ("were made from another input or other settings, or lack a file this run writes"
-               if marker == "summary.json" else "already exist")
+        why = "were made from another input or other settings, or lack a file this run writes"
         raise LimbstiffError(f"{job.source}: outputs in {job.out} {why} (use --overwrite to replace them)")
     (job.out / marker).unlink()
 
@@ -154,7 +153,14 @@ def _identify_and_write(job: BatchJob) -> dict:
     from ..files.outputs import write_json
     from ..result import _jsonable
 
+    from ..files.atomic import sha256_file
+
     opts = job.options
+    if not opts["overwrite"]:
+        done = up_to_date(job.out, source_sha256=sha256_file(job.source), run_sha256=opts["run_sha256"],
+                          files=["draws.csv"], marker="posterior.json")
+        if done is not None:
+            return dict(done, resumed=True)
     _clear_or_refuse(job, "posterior.json")
     trial = read_trial(job.source, opts["protocol"], name=job.name)
     ident = identify_trial(trial, opts["protocol"], seed=opts["seed"])
@@ -162,7 +168,7 @@ def _identify_and_write(job: BatchJob) -> dict:
     if ident.posterior is not None:
         atomic_write_text(job.out / "draws.csv", ident.posterior.to_frame().to_csv(index=False, float_format="%.10g"))
     summary = identification_summary(trial, ident, ci_level=opts["protocol"].ci_level, seed=opts["seed"])
-    summary = _jsonable(dict(summary, output=str(job.out)))
+    summary = _jsonable(dict(summary, output=str(job.out), run_sha256=opts["run_sha256"]))
     write_json(job.out / "posterior.json", summary)
     return summary
 
@@ -175,7 +181,9 @@ def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     Writes ``OUT/<trial>/posterior.json`` (intervals, noise levels, MCMC diagnostics),
     ``OUT/<trial>/draws.csv`` (posterior draws) and ``OUT/summary.csv``.
     """
-    options = {"protocol": protocol or Protocol(), "seed": seed, "overwrite": overwrite}
+    protocol = protocol or Protocol()
+    options = {"protocol": protocol, "seed": seed, "overwrite": overwrite,
+               "run_sha256": run_fingerprint(protocol, seed=seed)}
     return _run(paths, _identify_and_write, options, out=out, jobs=jobs, progress=progress, marker="posterior.json")
 
 

@@ -72,15 +72,16 @@ def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome]) -> None:
     atomic_write_text(path, buf.getvalue())
 
 
-def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: Iterable[str]) -> dict | None:
+def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: Iterable[str],
+               marker: str = SUMMARY_JSON) -> dict | None:
     """The existing summary of a trial whose outputs need not be made again, or None.
 
-    They need not when ``summary.json`` (written last, so present only for a complete trial)
-    records the same input SHA-256 and the same run fingerprint (settings, seed, reference,
-    version), and every file in ``files`` is there.
+    They need not when ``marker`` (``summary.json`` or ``posterior.json``, written last, so
+    present only for a complete trial) records the same input SHA-256 and the same run
+    fingerprint (settings, seed, reference, version), and every file in ``files`` is there.
     """
     try:
-        summary = json.loads((directory / SUMMARY_JSON).read_text(encoding="utf-8"))
+        summary = json.loads((directory / marker).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
     if not isinstance(summary, dict):
