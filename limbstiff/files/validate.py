@@ -108,8 +108,8 @@ def _check_time(where: str, time: np.ndarray, locate: Callable[[int], str]) -> N
         raise TrialError(where, f"trial too short: {time[-1] - time[0]:.3g} s (at least {MIN_DURATION:g} s needed)")
 
 
-#: Runs of samples at either end that hold fewer than this share of the trial (and fewer than
-#: :data:`EDGE_MIN_SAMPLES`) and are cut off by a gap are dropped: a logger's first sample written
+#: Runs of samples at either end cut off by a gap that hold fewer samples than the larger of this
+#: share of the trial and :data:`EDGE_MIN_SAMPLES` are dropped: a logger's first sample written
 #: 0.2 s before the rest is not part of the recording.
 EDGE_FRACTION, EDGE_MIN_SAMPLES = 0.01, 10
 #: The default longest bridged gap, as a share of the motion's typical period (the angle's
@@ -154,6 +154,7 @@ def _trim_and_bridge(where: str, values: dict, protocol, locate) -> tuple[dict, 
                      "file (cut off from the rest by a gap in time)")
         values = {f: None if v is None else v[start:stop] for f, v in values.items()}
         time = values["time"]
+        _check_time(where, time, locate)                  # still long enough without them?
         step = np.diff(time)
         gaps = np.flatnonzero(step > GAP_FACTOR * float(np.median(step)))
     given = getattr(protocol, "max_gap_s", None)
