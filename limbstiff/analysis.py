@@ -27,7 +27,7 @@ from .mechanics.identification import Identification, identify_mechanics
 from .protocol import Protocol
 from .result import DerivedSettings, StiffnessResult, software
 from .trial import Trial
-from .trial_level import COURSE_DRAWS, TrialLevel, background_torque, trial_level
+from .trial_level import TrialLevel, background_torque, course_draws_for, figure_columns, trial_level
 
 #: Default memory of the observer, as a fraction of the range of motion: by (8) the estimate
 #: forgets its past as exp(−α·path), so 1/α is the path over which it averages the local slope.
@@ -170,19 +170,22 @@ def _trial_level(filtered: Filtered, estimate: estimators.Estimate, ident: Ident
         idx = np.arange(filtered.edge, len(filtered.angle) - filtered.edge, decimation)
         step = filtered.sample_period * decimation
     rng = np.random.default_rng([seed, 14])
+    columns = figure_columns(len(idx))
+    torque = background_torque(filtered.torque[idx], step=step, motion_frequency=filtered.motion_hz)[columns]
+    idx = idx[columns]
+    n_draws = course_draws_for(len(columns) if estimate.steps is None else len(estimate.steps.index))
     base = estimate.stiffness[idx]
-    draws, sources = np.repeat(base[None, :], COURSE_DRAWS, axis=0), []
+    draws, sources = np.repeat(base[None, :], n_draws, axis=0), []
     if estimate.steps is not None:
-        draws += course_deviations(estimate.steps, estimate.fit.noise, draws=COURSE_DRAWS, rng=rng)
+        draws += course_deviations(estimate.steps, estimate.fit.noise, draws=n_draws, rng=rng, columns=columns)
         sources.append("course")
     if ident is not None and ident.posterior is not None and estimate.sensitivity is not None:
-        mech = ident.posterior.mechanics[rng.integers(0, len(ident.posterior.mechanics), COURSE_DRAWS)]
+        mech = ident.posterior.mechanics[rng.integers(0, len(ident.posterior.mechanics), n_draws)]
         draws += (mech - [ident.inertia.median, ident.damping.median]) @ estimate.sensitivity[:, idx]
         sources.append("mechanics")
     if not sources:
         draws = np.full_like(draws, np.nan)           # no joint uncertainty: no interval claimed
     informed = observable[idx] if np.count_nonzero(observable[idx]) >= 3 else np.ones(len(idx), dtype=bool)
-    torque = background_torque(filtered.torque[idx], step=step, motion_frequency=filtered.motion_hz)
     return trial_level(limb(base)[informed], limb(draws)[:, informed], torque[informed], level=level,
                        sources=tuple(sources))
 

@@ -26,6 +26,24 @@ BACKGROUND_PERIODS = 4.0
 #: Course draws for the trial-level intervals: the 5 % and 95 % quantiles of 400 draws have a
 #: standard error of about 0.11 standard deviations of the figure (binomial, √(0.05·0.95/400)/φ(1.645)).
 COURSE_DRAWS = 400
+#: Long trials get fewer draws, so that the draws cost at most this many step-passes (400 draws up to
+#: 50 000 filter steps, a few minutes of data), but never fewer than :data:`MIN_COURSE_DRAWS`: with
+#: 100 the quantiles' standard error is 0.22 standard deviations of the figure. A figure of a long
+#: trial averages over many samples, so its interval is set by m and b more than by the course.
+COURSE_WORK, MIN_COURSE_DRAWS = 20_000_000, 100
+#: The figures are taken on at most this many evenly spaced filter steps (their medians and slopes
+#: do not change beyond their intervals' precision; the draws keep memory at one pass).
+FIGURE_STEPS = 5000
+
+
+def course_draws_for(steps: int) -> int:
+    """How many course draws a trial of ``steps`` filter steps gets (:data:`COURSE_WORK`)."""
+    return int(min(COURSE_DRAWS, max(MIN_COURSE_DRAWS, COURSE_WORK // max(steps, 1))))
+
+
+def figure_columns(steps: int) -> np.ndarray:
+    """Indices of the (at most :data:`FIGURE_STEPS`) evenly spaced steps the figures use."""
+    return np.unique(np.linspace(0, steps - 1, min(steps, FIGURE_STEPS)).astype(int))
 
 FIGURES = ("median_stiffness", "stiffness_at_mean_torque", "stiffness_torque_slope")
 #: What each figure is, in words for the report and the JSON.

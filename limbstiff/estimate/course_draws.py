@@ -14,10 +14,16 @@ import numpy as np
 
 from .kalman import ModelSteps, NoiseLevels, at_steps, kalman_smoother
 
+#: Most numbers per simulated array of a block of draws (2·10⁶ float64: 16 MB each).
+BLOCK_VALUES = 2_000_000
+
 
 def course_deviations(steps: ModelSteps, noise: NoiseLevels, *, draws: int, rng: np.random.Generator,
-                      aligned: bool = True) -> np.ndarray:
+                      aligned: bool = True, columns: np.ndarray | None = None) -> np.ndarray:
     """Draws of the stiffness course's posterior error, at the model's steps.
+
+    The courses are simulated in blocks of at most :data:`BLOCK_VALUES` numbers, so that memory
+    stays that of a few passes however long the trial; only ``columns`` are kept.
 
     Parameters
     ----------
@@ -29,28 +35,35 @@ def course_deviations(steps: ModelSteps, noise: NoiseLevels, *, draws: int, rng:
     rng : numpy.random.Generator
     aligned : bool
         Aligned like the estimate (:func:`kalman.at_steps`), or the state σ[k] itself.
+    columns : ndarray of int, shape (c,), optional
+        The steps to keep (default all).
 
     Returns
     -------
-    ndarray, shape (draws, m), N·m/rad (N/m)
+    ndarray, shape (draws, c), N·m/rad (N/m)
         x⁺ − x̂⁺ of the stiffness: the estimate plus a row is a draw of the course from its
         posterior; unaligned, each column's variance is the smoother's posterior variance there.
     """
     n, dt = len(steps.measured), steps.step
+    keep = np.arange(n) if columns is None else np.asarray(columns)
     p11, p12, p22 = steps.initial_cov
-    start = np.asarray(steps.initial_mean) + rng.standard_normal((draws, 2)) @ np.linalg.cholesky(
-        np.array([[p11, p12], [p12, p22]]) + 1e-300 * np.eye(2)).T
-    w_k = rng.standard_normal((draws, n)) * np.sqrt(noise.stiffness_walk * dt)
-    w_c = rng.standard_normal((draws, n)) * np.sqrt(noise.coupled_walk * dt)
-    w_s = rng.standard_normal((draws, n)) * np.sqrt(noise.torque_walk * dt)
-    w_k[:, 0] = w_c[:, 0] = w_s[:, 0] = 0.0
-    stiffness = start[:, 1:] + np.cumsum(w_k + w_c, axis=1)
-    change = np.zeros((draws, n))
-    change[:, 1:] = stiffness[:, :-1] * steps.increments[1:] + steps.deflection[1:] * w_c[:, 1:] + w_s[:, 1:]
-    measured = start[:, :1] + np.cumsum(change, axis=1) + rng.standard_normal((draws, n)) * np.sqrt(noise.measurement)
-    out = np.empty((draws, n))
-    for j in range(draws):
-        smoothed = kalman_smoother(steps.increments, measured[j], noise, step=dt, deflection=steps.deflection,
-                                   initial_mean=steps.initial_mean, initial_cov=steps.initial_cov, loglik=False)
-        out[j] = stiffness[j] - smoothed.mean[:, 1]
-    return at_steps(out) if aligned else out
+    chol = np.linalg.cholesky(np.array([[p11, p12], [p12, p22]]) + 1e-300 * np.eye(2))
+    sd = np.sqrt([noise.stiffness_walk * dt, noise.coupled_walk * dt, noise.torque_walk * dt, noise.measurement])
+    out = np.empty((draws, keep.size))
+    block = max(1, BLOCK_VALUES // max(n, 1))
+    for first in range(0, draws, block):
+        k = min(block, draws - first)
+        start = np.asarray(steps.initial_mean) + rng.standard_normal((k, 2)) @ chol.T
+        w_k, w_c, w_s, v = rng.standard_normal((4, k, n)) * sd[:, None, None]
+        w_k[:, 0] = w_c[:, 0] = w_s[:, 0] = 0.0
+        stiffness = start[:, 1:] + np.cumsum(w_k + w_c, axis=1)
+        change = np.zeros((k, n))
+        change[:, 1:] = stiffness[:, :-1] * steps.increments[1:] + steps.deflection[1:] * w_c[:, 1:] + w_s[:, 1:]
+        measured = start[:, :1] + np.cumsum(change, axis=1) + v
+        for j in range(k):
+            smoothed = kalman_smoother(steps.increments, measured[j], noise, step=dt, deflection=steps.deflection,
+                                       initial_mean=steps.initial_mean, initial_cov=steps.initial_cov,
+                                       loglik=False)
+            error = stiffness[j] - smoothed.mean[:, 1]
+            out[first + j] = (at_steps(error) if aligned else error)[keep]
+    return out
