@@ -31,6 +31,19 @@ def test_course_draws_have_the_smoothers_posterior_variance():
     ratio = dev.var(axis=0) / smoothed.cov[:, 2]
     assert 0.9 < np.median(ratio) < 1.1
     assert abs(np.median(dev.mean(axis=0) / np.sqrt(dev.var(axis=0)))) < 0.1     # centred on the estimate
+    # the kept columns are those of the full draws (same generator, same blocks)
+    from limbstiff.estimate import course_draws
+    columns = np.array([0, 7, 199, 399])
+    full = course_deviations(st, noise, draws=30, rng=np.random.default_rng(5))
+    kept = course_deviations(st, noise, draws=30, rng=np.random.default_rng(5), columns=columns)
+    np.testing.assert_array_equal(kept, full[:, columns])
+    # drawn in blocks of 3 (as a long trial is), the draws have the same variance (±10 %, as above)
+    course_draws.BLOCK_VALUES, saved = 400 * 3, course_draws.BLOCK_VALUES
+    try:
+        small = course_deviations(st, noise, draws=2000, rng=np.random.default_rng(4), aligned=False)
+    finally:
+        course_draws.BLOCK_VALUES = saved
+    assert 0.9 < np.median(small.var(axis=0) / smoothed.cov[:, 2]) < 1.1
 
 
 def test_long_run_covariance_of_an_ma1_series():
