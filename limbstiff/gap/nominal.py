@@ -13,7 +13,7 @@ innovations e_c of each channel (f, ÿ, ẏ, φ_j) filtered alone, with w = (1, 
 coefficient that enters linearly — m and b when they are identified, an inertia or damping
 error when they are given, a friction torque, a reflex gain — is fitted by weighted least squares
 on those innovations and integrated out of the likelihood exactly, as the identification does for
-m and b. The noise levels (R, Q_s, Q_σ) are refitted by maximum marginal likelihood for every
+m and b. The noise levels (R, Q_s, Q_σ, Q_c) are refitted by maximum marginal likelihood for every
 model compared, so that a stiffness walk that took up an unmodelled effect is allowed to shrink
 once the effect is in the model.
 
@@ -216,7 +216,7 @@ def fit_noise(steps: Steps, *, start: NoiseLevels, motion_hz: float) -> NoiseLev
 
     Nelder–Mead on the log levels within the analysis's bounds
     (:func:`~limbstiff.estimate.kalman.noise_bounds`), from ``start`` and from the best point of
-    a 5 × 5 grid over the measurement noise and the stiffness walk, the better kept. The
+    a 5 × 5 grid over the measurement noise and the stiffness walks (both kinds at one level), the better kept. The
     likelihood has two kinds of optimum — a stiffness that walks and tracks the torque, and a
     constant one with the rest as measurement noise — and an unmodelled effect can make the
     second the better; once the effect is in the model the first must still be found from where

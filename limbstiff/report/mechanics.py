@@ -129,7 +129,7 @@ def mechanics_page(result):
     text_ax = fig.add_subplot(gs[0, 1] if len(free) == 2 else gs[1, :])
     text_panel(text_ax, _value_rows(result, params, draws), title="Values", key_width=0.4, wrap=34,
                fontsize=FONT["small"])
-    _noise_row(fig, outer[1].subgridspec(1, 3), draws, result.trial.units)
+    _noise_row(fig, outer[1].subgridspec(1, min(4, draws.shape[1] - 2)), draws, result.trial.units)
     return fig
 
 
@@ -215,12 +215,14 @@ def _value_rows(result, params: list[_Parameter], draws: np.ndarray) -> list[tup
 
 
 def _noise_row(fig, gs, draws, u):
-    """Histograms of the log noise levels (ln R, ln Q_s, ln Q_σ)."""
+    """Histograms of the log noise levels (ln R, ln Q_s, ln Q_σ, ln Q_c)."""
     from matplotlib.ticker import MaxNLocator
     torque, stiff = u["torque"], u["stiffness"]
-    labels = [f"ln R   [R: ({torque})²]", f"ln Q_s   [Q_s: ({torque})²/s]", f"ln Q_σ   [Q_σ: ({stiff})²/s]"]
-    titles = ["measurement noise", "elastic-torque walk", "stiffness walk"]
-    for k in range(3):
+    labels = [f"ln R   [R: ({torque})²]", f"ln Q_s   [Q_s: ({torque})²/s]", f"ln Q_σ   [Q_σ: ({stiff})²/s]",
+              f"ln Q_c   [Q_c: ({stiff})²/s]"]
+    titles = ["measurement noise", "elastic-torque walk", "stiffness walk (free)",
+              "stiffness walk (coupled)"]
+    for k in range(min(4, draws.shape[1] - 2)):
         ax = fig.add_subplot(gs[0, k])
         x = draws[:, 2 + k]
         x = x[np.isfinite(x)]
