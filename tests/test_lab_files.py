@@ -70,7 +70,8 @@ def test_a_gap_longer_than_max_gap_is_refused_naming_the_setting(tmp_path):
 def test_an_isolated_first_sample_is_dropped(tmp_path):
     trial = multisine_trial(duration=6.0)
     t = np.r_[trial.time[0] - 0.3, trial.time]
-    body = "\n".join(f"{a:.6f},{b:.9g},{c:.9g}" for a, b, c in zip(t, np.r_[0.0, trial.angle], np.r_[0.0, trial.torque]))
+    rows = zip(t, np.r_[0.0, trial.angle], np.r_[0.0, trial.torque])
+    body = "\n".join(f"{a:.6f},{b:.9g},{c:.9g}" for a, b, c in rows)
     path = tmp_path / "t.csv"
     path.write_text("time_s,angle_rad,torque_Nm\n" + body + "\n")
     read = read_trial(path)

@@ -114,7 +114,8 @@ def kalman_loglik(increments: np.ndarray, measured: np.ndarray, noise: NoiseLeve
     -------
     float
     """
-    return float(kernels.kalman_loglik(*_args(increments, deflection, measured, noise, step, initial_mean, initial_cov)))
+    args = _args(increments, deflection, measured, noise, step, initial_mean, initial_cov)
+    return float(kernels.kalman_loglik(*args))
 
 
 @dataclass(frozen=True)
@@ -298,8 +299,8 @@ def maximise(loglik, start: np.ndarray, bounds: list, max_evaluations: int = 300
     walks 10³ times smaller and larger, and keeps the best.
     """
     start = np.asarray(start, dtype=float)
-    return nelder_mead(loglik, [start + np.array([0.0, 0.0, shift, shift]) for shift in (0.0, -3 * np.log(10), 3 * np.log(10))],
-                       bounds, max_evaluations)
+    shifts = (0.0, -3 * np.log(10), 3 * np.log(10))
+    return nelder_mead(loglik, [start + np.array([0.0, 0.0, shift, shift]) for shift in shifts], bounds, max_evaluations)
 
 
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, deflection: np.ndarray,
