@@ -127,11 +127,17 @@ def _run(paths, work, options, *, out, jobs, progress, marker: str) -> BatchRepo
     names, notes = output_names(files)
     jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
     lost = [TrialOutcome(Path(text).stem, text, "failed", why) for text, why in missing]
+    # the folder's rows are read once; of this run's trials not yet finished, only whether their
+    # marker is still there can change (it is removed while a trial is redone)
+    earlier = folder_outcomes(out, marker, exclude={o.trial for o in lost})
+    pending = set(names)
     finished: dict[str, TrialOutcome] = {}
 
     def table(current):
-        rows = current + lost
-        return rows + folder_outcomes(out, marker, exclude={o.trial for o in rows})
+        done = {o.trial for o in current}
+        kept = [o for o in earlier if o.trial not in done
+                and (o.trial not in pending or (out / o.trial / marker).is_file())]
+        return current + lost + kept
 
     def record(outcome, done, total):
         finished[outcome.trial] = outcome
