@@ -13,6 +13,7 @@ import numpy as np
 
 from ..estimate import kalman as kalman_model
 from ..estimate import kernels
+from ..estimate.noise_search import maximise, noise_bounds
 from .least_squares import LeastSquaresFit
 
 
@@ -87,7 +88,7 @@ class MechanicsProblem:
         slopes = kalman_model.initial_slopes(y, chans)
         cov0 = kalman_model.initial_cov(y, chans[0])
         z = chans[0] - guess.inertia * chans[1] - guess.damping * chans[2]
-        bounds = np.array(kalman_model.noise_bounds(float(np.var(z)), float(np.sqrt(cov0[2])), motion_frequency))
+        bounds = np.array(noise_bounds(float(np.var(z)), float(np.sqrt(cov0[2])), motion_frequency))
         return cls(np.diff(y, prepend=y[0]), g, chans, slopes, cov0, step, bounds, restart)
 
     def conditional(self, log_noise):
@@ -192,7 +193,7 @@ def kalman_mechanics(problem: MechanicsProblem, *, guess: LeastSquaresFit,
     duration = problem.step * len(problem.increments)
     walk = (0.1 * abs(problem.slopes[0]) + 1e-12) ** 2
     start = np.log([resid_var, resid_var / duration, walk, walk])
-    best, _ = kalman_model.maximise(lambda logs: problem.conditional(logs)[0], start, list(problem.bounds),
+    best, _ = maximise(lambda logs: problem.conditional(logs)[0], start, list(problem.bounds),
                                  max_evaluations)
     loglik, mean, cov = problem.conditional(best)
     return MechanicsFit(inertia=float(mean[0]), damping=float(mean[1]), covariance=cov,
