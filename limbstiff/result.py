@@ -143,6 +143,41 @@ class StiffnessResult:
         """Share of samples where the estimate is informed by motion."""
         return float(np.mean(self.observable))
 
+    def plot(self, ax=None, *, against: str = "time", reference: bool = True):
+        """Draw the stiffness into a matplotlib axes (the report's figures, one at a time).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; pyplot's current axes when omitted.
+        against : {"time", "angle", "torque"}
+            ``time``: the course with its band, uninformed stretches shaded (page 1's figure);
+            ``angle``/``torque``: medians in bins with the band, over the informed samples.
+        reference : bool
+            With ``against="time"``, draw the reference stiffness when there is one.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        from .report.plots import plot_relation, plot_stiffness
+        if against == "time":
+            return plot_stiffness(self, ax=ax, reference=reference)
+        return plot_relation(self, against, ax=ax)
+
+    def report(self) -> str:
+        """What page 1 of the PDF report says, as text: verdict with reasons, the trial's figures
+        with their intervals, warnings, the recording."""
+        from .digest import text_report
+        return text_report(self)
+
+    def __repr__(self) -> str:
+        median, _, _ = self.informed_stiffness()
+        unit = self.trial.units["stiffness"]
+        span = "" if median.is_fixed else f" [{median.lo:.4g}, {median.hi:.4g}]"
+        return (f"<StiffnessResult {self.trial.name!r}: median stiffness {median.median:.4g}{span} {unit}, "
+                f"verdict {self.verdict or '—'}, {100 * self.observable_fraction:.0f} % informed>")
+
     def to_frame(self):
         """The per-sample table of ``stiffness.csv`` as a :class:`pandas.DataFrame`."""
         import pandas as pd

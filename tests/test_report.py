@@ -33,10 +33,11 @@ def page_count(pdf: bytes) -> int:
 
 def has_data(ax) -> bool:
     """An axes shows data: a line with ≥ 2 finite points, scatter points, a collection with a
-    finite path (band, bars, contour, colour bar), an image, or a bar/histogram patch. Reference
-    lines and spans (axvline, axvspan: not in data coordinates) do not count."""
+    finite path (band, bars, contour, colour bar), an image, or a bar/histogram patch (bars or a
+    filled step outline). Reference lines and spans (axvline, axvspan: not in data coordinates) do
+    not count."""
     from matplotlib.collections import PathCollection
-    from matplotlib.patches import Rectangle
+    from matplotlib.patches import Polygon, Rectangle
     for line in ax.get_lines():
         x, y = (np.asarray(v, dtype=float) for v in line.get_data())
         if line.get_transform() is ax.transData and np.count_nonzero(np.isfinite(x) & np.isfinite(y)) >= 2:
@@ -49,6 +50,9 @@ def has_data(ax) -> bool:
         elif any(len(p.vertices) >= 2 and np.isfinite(p.vertices).all() for p in coll.get_paths()):
             return True
     if ax.images:
+        return True
+    if any(isinstance(p, Polygon) and p.get_data_transform() is ax.transData and len(p.get_xy()) >= 3
+           and np.isfinite(p.get_xy()).all() and np.ptp(p.get_xy()[:, 1]) > 0 for p in ax.patches):
         return True
     return any(isinstance(p, Rectangle) and p.get_data_transform() is ax.transData and p.get_height() > 0
                and p.get_width() > 0 for p in ax.patches)
@@ -199,3 +203,59 @@ def test_analysis_does_not_import_matplotlib():
             "limbstiff.provenance.dependency_versions(); "
             "assert 'matplotlib' not in sys.modules, 'matplotlib imported'")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_page_one_is_the_answer(elbow):
+    """Page 1 carries the verdict, the stiffness-over-time figure and the trial's figures."""
+    page = report_figures(elbow)[0]
+    words = " ".join(t.get_text() for t in page.texts)
+    assert "Verdict: OK" in words and "Median stiffness" in words and "90 % interval of the median" in words
+    plots = [ax for ax in page.axes if ax.get_gid() != TEXT_PANEL]
+    assert len(plots) == 1 and plots[0].get_ylabel() == "stiffness [N·m/rad]"
+    assert "not informed by motion" in [t.get_text() for t in plots[0].get_legend().get_texts()]
+
+
+def test_result_draws_into_a_users_axes_and_prints_page_one(elbow):
+    from matplotlib.figure import Figure
+    fig = Figure()
+    axes = fig.subplots(1, 3)
+    for ax, against in zip(axes, ("time", "angle", "torque")):
+        assert elbow.plot(ax=ax, against=against) is ax
+        assert has_data(ax)
+    assert axes[1].get_xlabel() == "angle [rad]" and axes[2].get_xlabel() == "torque [N·m]"
+    with pytest.raises(ValueError, match="against"):
+        elbow.plot(ax=axes[0], against="speed")
+    text = elbow.report()
+    median = elbow.informed_stiffness()[0]
+    assert text.splitlines()[0] == "Stiffness of trial elbow"
+    assert f"Verdict: {elbow.verdict.upper()}" in text and f"{median.median:.4g} N·m/rad" in text
+    assert repr(elbow).startswith("<StiffnessResult 'elbow': median stiffness") and "informed>" in repr(elbow)
+
+
+def test_relation_bins_exact():
+    """Bins of equal counts: on x = 0…299 (given in reverse) with stiffness = x in ten bins, each
+    median is the middle of its 30 values (start + 14.5) and the 10th/90th percentiles lie 11.6
+    from it (numpy's linear rule: the 10th percentile of 0…29 is 2.9)."""
+    from limbstiff.report.plots import relation_bins
+    x = np.arange(300.0)[::-1]
+    b = relation_bins(x, x, x - 1, x + 2, bins=10)
+    starts = np.arange(0, 300, 30)
+    np.testing.assert_allclose(b["x"], starts + 14.5)
+    np.testing.assert_allclose(b["median"], starts + 14.5)
+    np.testing.assert_allclose(b["p90"] - b["median"], 11.6)
+    np.testing.assert_allclose(b["median"] - b["p10"], 11.6)
+    np.testing.assert_allclose(b["hi"] - b["lo"], 3.0)
+    assert b["count"].tolist() == [30] * 10
+    assert relation_bins(x[:89], x[:89], x[:89], x[:89], bins=10)["count"].size == 2   # ≥ 30 samples a bin
+
+
+def test_prior_densities_integrate_to_one():
+    """The densities drawn on the posterior page are normalised (trapezoid rule to 1e-3 over a
+    range holding all but ~1e-6 of the mass), and the flat default has none."""
+    from limbstiff.mechanics.posterior import prior_density
+    from limbstiff.protocol import Prior
+    x = np.linspace(1e-9, 10.0, 400_001)
+    for prior in (Prior("lognormal", median=1.0, sigma=0.5), Prior("halfnormal", scale=2.0),
+                  Prior("uniform", low=0.5, high=3.0)):
+        assert abs(np.trapezoid(prior_density(x, prior), x) - 1) < 1e-3, prior
+    assert prior_density(x, Prior()) is None

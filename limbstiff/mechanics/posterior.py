@@ -123,6 +123,25 @@ def log_prior(values: np.ndarray, prior: Prior) -> np.ndarray:
     return out
 
 
+def prior_density(values: np.ndarray, prior: Prior) -> np.ndarray | None:
+    """Normalised density of ``prior`` at ``values`` (1/SI unit); None for the flat default,
+    which has none.
+    """
+    x = np.asarray(values, dtype=float)
+    out = np.zeros(x.shape)
+    ok = x > 0
+    if prior.distribution == "lognormal":
+        z = np.log(x[ok] / prior.median) / prior.sigma
+        out[ok] = np.exp(-0.5 * z ** 2) / (x[ok] * prior.sigma * np.sqrt(2 * np.pi))
+    elif prior.distribution == "uniform":
+        out[ok & (x >= prior.low) & (x <= prior.high)] = 1.0 / (prior.high - prior.low)
+    elif prior.scale is None:
+        return None
+    else:
+        out[ok] = 2.0 * np.exp(-0.5 * (x[ok] / prior.scale) ** 2) / (prior.scale * np.sqrt(2 * np.pi))
+    return out
+
+
 def autocorr_time(chain: np.ndarray) -> np.ndarray:
     """emcee's integrated autocorrelation time per parameter, in steps, however short the chain.
 

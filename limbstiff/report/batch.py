@@ -110,7 +110,7 @@ def _slots(page_rows, keys):
 
 
 def _plot_page(page_rows, keys, ci_level, title_lines):
-    fig = new_page(constrained=False)
+    fig = new_page()
     for k, line in enumerate(title_lines):
         fig.text(0.06, 0.965 - 0.022 * k, line, fontsize=FONT["title"] - 2 if k == 0 else FONT["body"],
                  weight="bold" if k == 0 else "normal", va="top")
@@ -237,7 +237,7 @@ def _table_pages(rows, keys, units):
     columns = [c for c in _COLUMNS if keys or c[0] != "group"]
     pages = []
     for n, lines in enumerate(chunks):
-        fig = new_page("Trials" + (" (continued)" if n else ""), constrained=False)
+        fig = new_page("Trials" + (" (continued)" if n else ""))
         y = 0.92
         for k, (cells, failed) in enumerate(header + lines):
             for name, x, align, chars in columns:

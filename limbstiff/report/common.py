@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import __version__
 from ..files.atomic import atomic_output
-from ..interval import Interval
+from ..digest import number as fmt  # noqa: F401  (the reports' number format)
 
 #: A4 portrait, inches.
 A4 = (8.27, 11.69)
@@ -33,7 +33,7 @@ _RC = {
     "font.size": FONT["body"], "axes.titlesize": FONT["body"], "axes.labelsize": FONT["body"],
     "xtick.labelsize": FONT["small"], "ytick.labelsize": FONT["small"],
     "legend.fontsize": FONT["small"], "figure.titlesize": FONT["heading"],
-    "axes.grid": True, "grid.color": "0.9", "grid.linewidth": 0.5, "pdf.fonttype": 42,
+    "axes.grid": True, "grid.color": "0.9", "grid.linewidth": 0.5, "pdf.fonttype": 3,
 }
 
 
@@ -45,29 +45,42 @@ def style():
         yield
 
 
-def new_page(title: str | None = None, *, constrained: bool = True):
-    """An A4 portrait figure with room for a title and the footer.
+def new_page(title: str | None = None):
+    """An A4 portrait figure with a title; plots go in :func:`grid` (a fixed layout: the
+    constrained layout cost more than the analysis on long trials).
 
     Parameters
     ----------
     title : str, optional
         Page heading (bold, top left).
-    constrained : bool
-        Use matplotlib's constrained layout within the page's free area.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
     from matplotlib.figure import Figure
-    fig = Figure(figsize=A4, layout="constrained" if constrained else None)
-    top = 1.0
+    fig = Figure(figsize=A4)
     if title:
         fig.text(0.06, 1 - 0.6 * TITLE_HEIGHT, title, fontsize=FONT["title"] - 2, weight="bold", va="center")
-        top = 1 - TITLE_HEIGHT
-    if constrained:
-        fig.get_layout_engine().set(rect=(0.0, FOOTER_HEIGHT, 1.0, top - FOOTER_HEIGHT), h_pad=0.06, w_pad=0.06)
     return fig
+
+
+def grid(fig, nrows: int, ncols: int, **kw):
+    """A grid of plots filling the page between title and footer, with room for axis labels.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    nrows, ncols : int
+    **kw
+        Passed to :meth:`~matplotlib.figure.Figure.add_gridspec` (``hspace``, ``height_ratios``…).
+
+    Returns
+    -------
+    matplotlib.gridspec.GridSpec
+    """
+    frame = {"left": 0.11, "right": 0.94, "bottom": FOOTER_HEIGHT + 0.045, "top": 1 - TITLE_HEIGHT - 0.02}
+    return fig.add_gridspec(nrows, ncols, **{**frame, **kw})
 
 
 def text_panel(ax, lines: Sequence[tuple[str, str]] | str, *, title: str | None = None,
@@ -121,20 +134,6 @@ def text_panel(ax, lines: Sequence[tuple[str, str]] | str, *, title: str | None 
         text.set_in_layout(False)       # the panel's size is the layout's; text may not push plots aside
 
 
-def fmt(x, unit: str = "", digits: int = 4) -> str:
-    """A number with its unit, ``—`` when missing or not finite."""
-    if x is None or (isinstance(x, float) and not np.isfinite(x)):
-        return "—"
-    return f"{x:.{digits}g} {unit}".strip()
-
-
-def fmt_interval(v: Interval | None, unit: str, ci_level: float) -> str:
-    """``median unit [lo, hi] (90 % interval)`` of an interval; ``—`` when missing."""
-    if v is None or v.median is None:
-        return "—"
-    return f"{fmt(v.median, unit)}  [{fmt(v.lo)}, {fmt(v.hi)}]  ({100 * ci_level:.0f} % interval)"
-
-
 def footer(fig, lines: Iterable[str], page: int | None = None, pages: int | None = None) -> None:
     """Provenance lines at the foot of a page, page number at the right.
 
@@ -162,7 +161,7 @@ def shade_false(ax, time: np.ndarray, mask: np.ndarray, **kw) -> None:
 
 
 #: Most points of a time-series line on a page: far beyond what print resolves, far below a long trial.
-LINE_POINTS = 4000
+LINE_POINTS = 2000
 
 
 def envelope(t: np.ndarray, *ys: np.ndarray, points: int = LINE_POINTS):

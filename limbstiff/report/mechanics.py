@@ -10,22 +10,21 @@ from typing import NamedTuple
 import numpy as np
 
 from ..interval import Interval
-from .common import FONT, fmt, new_page, text_panel
+from ..mechanics.posterior import prior_density
+from ..protocol import Prior
+from .common import FONT, fmt, grid, new_page, text_panel
 
 #: Credible masses drawn as contours on the (m, b) scatter.
 CONTOUR_MASSES = (0.5, 0.9)
 
 
-def _prior_text(prior) -> str:
-    """The prior of a protocol's ``*_prior`` table, in words."""
-    if not prior:
-        return "flat on > 0"
-    d = prior.get("distribution")
-    if d == "lognormal":
-        return f"lognormal, median {prior.get('median'):.4g}, σ(log) {prior.get('sigma'):.3g}"
-    if d == "uniform":
-        return f"uniform on [{prior.get('low'):.4g}, {prior.get('high'):.4g}]"
-    return "flat on > 0" if prior.get("scale") is None else f"half-normal, scale {prior.get('scale'):.4g}"
+def _prior_text(prior: Prior) -> str:
+    """A prior in words."""
+    if prior.distribution == "lognormal":
+        return f"lognormal, median {prior.median:.4g}, σ(log) {prior.sigma:.3g}"
+    if prior.distribution == "uniform":
+        return f"uniform on [{prior.low:.4g}, {prior.high:.4g}]"
+    return "flat on > 0" if prior.scale is None else f"half-normal, scale {prior.scale:.4g}"
 
 
 def _limits(x: np.ndarray, extra: list[float]) -> tuple[tuple[float, float], list[bool]]:
@@ -60,15 +59,37 @@ def _contours(ax, x, y, xlim, ylim) -> None:
         ax.contour(xc, yc, dens.T, levels=levels, colors=["C0", "C0"], linewidths=[0.8, 1.4])
 
 
-def _hist(ax, x, interval, marks, label, inside):
-    """Histogram of draws ``x`` (n,) with the (median, lo, hi) interval and the marks inside the axis."""
-    ax.hist(x, bins=40, color="C0", alpha=0.55, density=True)
+def _prior(result, name: str) -> Prior:
+    """The prior of ``inertia`` or ``damping`` the analysis used (from its resolved settings)."""
+    spec = (result.settings or {}).get(f"{name}_prior") or {}
+    return spec if isinstance(spec, Prior) else Prior(**spec)
+
+
+def _hist(ax, x, interval, marks, label, inside, prior: Prior):
+    """Histogram of draws ``x`` (n,) with the (median, lo, hi) interval, the prior's density and
+    the marks inside the axis."""
+    ax.hist(x, bins=40, color="C0", alpha=0.55, density=True, histtype="stepfilled", label="posterior")
+    lo_x, hi_x = ax.get_xlim()
+    ax.set_ylim(0, 1.25 * ax.get_ylim()[1])       # a prior far taller than the posterior is cut off
+    grid_x = np.linspace(lo_x, hi_x, 200)
+    density = prior_density(grid_x, prior)
+    if density is None:
+        ax.plot([], [], color="C2", lw=1.2, ls="--", label="prior: flat on > 0 (no density to draw)")
+    else:
+        ax.plot(grid_x, density, color="C2", lw=1.2, ls="--", label=f"prior: {_prior_text(prior)}")
+    ax.set_xlim(lo_x, hi_x)
     med, lo, hi = interval
     ax.axvspan(lo, hi, color="C0", alpha=0.12, lw=0)
     ax.axvline(med, color="k", lw=1.2)
     for (name, value, marker, colour), ok in zip(marks, inside):
         if ok:
-            ax.axvline(value, color=colour, lw=1, ls=":")
+            ax.axvline(value, color=colour, lw=1, ls=":", label=name)
+        elif value is not None and np.isfinite(value):
+            right = value > hi_x
+            ax.annotate(f"{name} {value:.4g} →" if right else f"← {name} {value:.4g}",
+                        xy=(1.0 if right else 0.0, 0.55), xycoords="axes fraction", ha="right" if right else "left",
+                        fontsize=FONT["small"], color=colour)
+    ax.legend(loc="upper right", fontsize=FONT["small"], framealpha=0.85)
     ax.set_xlabel(label)
     ax.set_ylabel("density")
 
@@ -113,23 +134,23 @@ class _Parameter(NamedTuple):
 def mechanics_page(result):
     """The posterior of inertia and damping as a pairwise plot (or why there is none)."""
     post = result.posterior
-    fig = new_page("Inertia and damping: posterior", constrained=post is not None)
+    fig = new_page("Inertia and damping: posterior")
     if post is None:
         _no_posterior(fig.add_axes((0.06, 0.5, 0.88, 0.38)), result)
         return fig
     draws = np.asarray(post.draws, float)
     params = _parameters(result, draws)
     free = [p for p in params if p.free]
-    outer = fig.add_gridspec(2, 1, height_ratios=[2, 0.75])
-    gs = outer[0].subgridspec(2, 2)
-    diag = _diagonal(fig, gs, free)
+    outer = grid(fig, 2, 1, height_ratios=[2, 0.75], hspace=0.28)
+    gs = outer[0].subgridspec(2, 2, hspace=0.3, wspace=0.3)
+    diag = _diagonal(fig, gs, free, result)
     if len(free) == 2:
         _pair(fig.add_subplot(gs[1, 0], sharex=diag[0]), *params, result.ci_level)
         diag[0].set_xlabel("")
     text_ax = fig.add_subplot(gs[0, 1] if len(free) == 2 else gs[1, :])
     text_panel(text_ax, _value_rows(result, params, draws), title="Values", key_width=0.4, wrap=34,
                fontsize=FONT["small"])
-    _noise_row(fig, outer[1].subgridspec(1, min(4, draws.shape[1] - 2)), draws, result.trial.units)
+    _noise_levels(fig.add_subplot(outer[1].subgridspec(1, 4)[0, 1:]), draws, result.trial.units)
     return fig
 
 
@@ -160,15 +181,15 @@ def _parameters(result, draws: np.ndarray) -> list[_Parameter]:
     return params
 
 
-def _diagonal(fig, gs, free: list[_Parameter]) -> list:
+def _diagonal(fig, gs, free: list[_Parameter], result) -> list:
     """Histograms of the free parameters: the diagonal of the 2×2 grid ``gs`` (or its top row)."""
     from matplotlib.ticker import MaxNLocator
     axes = []
     for k, p in enumerate(free):
         ax = fig.add_subplot(gs[k, k] if len(free) == 2 else gs[0, :])
         iv = p.interval
-        _hist(ax, p.draws, (iv.median, iv.lo, iv.hi), p.marks, p.label, p.inside)
         ax.set_xlim(*p.limits)
+        _hist(ax, p.draws, (iv.median, iv.lo, iv.hi), p.marks, p.label, p.inside, _prior(result, p.name))
         ax.xaxis.set_major_locator(MaxNLocator(4))
         axes.append(ax)
     return axes
@@ -206,7 +227,7 @@ def _value_rows(result, params: list[_Parameter], draws: np.ndarray) -> list[tup
         for (what, v, _, _), ok in zip(p.marks, p.inside):
             if v is not None:
                 rows.append((f"  {what}", fmt(v, p.unit) + ("" if ok else " (off the plot)")))
-        rows.append(("  prior", _prior_text((result.settings or {}).get(f"{p.name}_prior"))))
+        rows.append(("  prior", _prior_text(_prior(result, p.name))))
     if all(p.free for p in params):
         rows.append(("correlation", f"{np.corrcoef(draws[:, 0], draws[:, 1])[0, 1]:+.2f}"))
     rows.append(("draws", f"{draws.shape[0]}; black: median, shaded: {100 * result.ci_level:.0f} % interval; "
@@ -214,25 +235,29 @@ def _value_rows(result, params: list[_Parameter], draws: np.ndarray) -> list[tup
     return rows
 
 
-def _noise_row(fig, gs, draws, u):
-    """Histograms of the log noise levels (ln R, ln Q_s, ln Q_σ, ln Q_c)."""
-    from matplotlib.ticker import MaxNLocator
+def _noise_levels(ax, draws, u) -> None:
+    """The posterior of the log noise levels (ln R, ln Q_s, ln Q_σ, ln Q_c) on one axes: each a
+    row, its draws' histogram about their median (the levels differ by orders of magnitude, their
+    spreads do not)."""
     torque, stiff = u["torque"], u["stiffness"]
-    labels = [f"ln R   [R: ({torque})²]", f"ln Q_s   [Q_s: ({torque})²/s]", f"ln Q_σ   [Q_σ: ({stiff})²/s]",
-              f"ln Q_c   [Q_c: ({stiff})²/s]"]
-    titles = ["measurement noise", "elastic-torque walk", "stiffness walk (free)",
-              "stiffness walk (coupled)"]
+    names = [f"measurement noise R [({torque})²]", f"elastic-torque walk Q_s [({torque})²/s]",
+             f"stiffness walk, free Q_σ [({stiff})²/s]", f"stiffness walk, coupled Q_c [({stiff})²/s]"]
+    labels = []
     for k in range(min(4, draws.shape[1] - 2)):
-        ax = fig.add_subplot(gs[0, k])
         x = draws[:, 2 + k]
         x = x[np.isfinite(x)]
         if x.size == 0:
-            text_panel(ax, "no draws")
+            labels.append(f"{names[k]}: no draws")
             continue
-        ax.hist(x, bins=30, color="0.5", alpha=0.8, density=True)
-        ax.axvline(np.median(x), color="k", lw=1)
-        ax.set_xlabel(labels[k])
-        ax.xaxis.set_major_locator(MaxNLocator(4))
-        ax.set_title(titles[k], fontsize=FONT["small"])
-        if k == 0:
-            ax.set_ylabel("density")
+        med = float(np.median(x))
+        counts, edges = np.histogram(x - med, bins=30)
+        top = k + 0.4 * counts / max(counts.max(), 1)
+        ax.fill_between(np.repeat(edges, 2)[1:-1], k - 0.4 * counts.repeat(2) / max(counts.max(), 1),
+                        top.repeat(2), color="0.5", alpha=0.7, lw=0)
+        labels.append(f"{names[k]}\nln median {med:.3g}")
+    ax.axvline(0, color="k", lw=1)
+    ax.set_yticks(range(len(labels)), labels, fontsize=FONT["small"])
+    ax.set_ylim(-0.6, len(labels) - 0.4)
+    ax.invert_yaxis()
+    ax.set_xlabel("ln level − its posterior median (0.69 = a factor of 2)")
+    ax.set_title("Posterior of the Kalman model's noise levels", fontsize=FONT["body"], loc="left")

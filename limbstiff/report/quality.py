@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common import FONT, fmt, is_constant, new_page, text_panel
-from .pages import names, recorded_torque
+from .common import FONT, fmt, grid, is_constant, new_page, text_panel
+from .plots import names, recorded_torque
 
 
 def spectrum(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
@@ -37,7 +37,12 @@ def _spectrum_axes(ax, x, fs, *, label, unit, cutoff, edge, step, floor=None):
     if keep.sum() < 2:
         text_panel(ax, f"The {label} has no spectrum to show (too short or a straight line).")
         return
+    from matplotlib.ticker import FuncFormatter, NullLocator
     ax.loglog(freq[keep], asd[keep], lw=0.8, color="C0", label=f"{label} spectrum")
+    for axis in (ax.xaxis, ax.yaxis):
+        # a log axis's minor ticks and math-text labels cost more than the page's data
+        axis.set_minor_locator(NullLocator())
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     if cutoff is not None:
         ax.axvline(cutoff, color="C3", lw=1.2, label=f"low-pass corner {cutoff:.3g} Hz")
     if edge:
@@ -113,7 +118,7 @@ def quality_page(result):
     bw = f.bandwidth
     key, torque = recorded_torque(result)
     fig = new_page("Data quality")
-    gs = fig.add_gridspec(4, 2, height_ratios=[0.85, 1.2, 1.2, 1.05])
+    gs = grid(fig, 4, 2, height_ratios=[0.85, 1.2, 1.2, 1.05], hspace=0.35, wspace=0.25)
     sampling = [("rate", f"{trial.fs:.6g} Hz (step {1e3 * trial.sample_period:.4g} ms)"),
                 ("samples", f"{trial.n_samples} over {trial.duration:.4g} s")]
     reading = [w for w in trial.warnings] or ["none"]

@@ -1,0 +1,157 @@
+"""Axes-level plots of a stiffness result: each draws onto an axes it is given (or the current
+one) and returns it, so that a user can place them in their own figures, and the report's
+pages are assembled from them (as python-control's plot functions are).
+
+matplotlib is imported inside the functions only.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..estimate.observer import informed_samples
+from .common import envelope, envelope_band, robust_limits, shade_false
+
+#: Bins of the stiffness-against-angle/torque plots (equal counts of informed samples).
+RELATION_BINS = 12
+#: Informed samples per bin at least; fewer bins when the trial has fewer samples.
+MIN_BIN_SAMPLES = 30
+#: Points of the grey scatter behind the binned medians at most (evenly thinned beyond).
+SCATTER_POINTS = 4000
+
+
+def _axes(ax):
+    if ax is None:
+        import matplotlib.pyplot as plt
+        ax = plt.gca()
+    return ax
+
+
+def names(trial) -> dict[str, str]:
+    """Words for the trial's quantities: angle/torque (rotational) or position/force."""
+    if trial.kind == "translational":
+        return {"angle": "position", "torque": "force", "elastic_torque": "elastic force"}
+    return {"angle": "angle", "torque": "torque", "elastic_torque": "elastic torque"}
+
+
+def recorded_torque(result) -> tuple[str, np.ndarray]:
+    """The torque channel the variant used: (``torque`` or ``elastic_torque``, samples)."""
+    trial = result.trial
+    if result.variant == "direct" or trial.torque is None:
+        return "elastic_torque", trial.elastic_torque
+    return "torque", trial.torque
+
+
+def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = True):
+    """The stiffness over time with its band; stretches not informed by motion shaded grey.
+
+    Parameters
+    ----------
+    result : StiffnessResult
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (the current axes of pyplot when omitted).
+    reference : bool
+        Draw the reference stiffness (``stiffness_true`` or a calibration) when there is one.
+    legend : bool
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = _axes(ax)
+    t, u = result.trial.time, result.trial.units
+    shade_false(ax, t, result.observable)
+    ax.fill_between(*envelope_band(t, result.stiffness_lo, result.stiffness_hi), color="C0", alpha=0.3, lw=0,
+                    label=f"{100 * result.ci_level:.0f} % band")
+    ax.plot(*envelope(t, result.stiffness), lw=0.8, color="C0", label="estimate")
+    show_ref = reference and result.reference is not None
+    if show_ref:
+        ax.plot(*envelope(t, result.reference), lw=0.9, color="k", ls="--", label="reference")
+    obs = informed_samples(result.observable)
+    values = [result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs]]
+    if show_ref:
+        values.append(result.reference[obs])
+    limits = robust_limits(np.concatenate(values), pad=0.2)
+    if limits is not None:
+        ax.set_ylim(*limits)
+    ax.set_xlim(t[0], t[-1])
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(f"stiffness [{u['stiffness']}]")
+    if legend:
+        ax.fill_between([], [], [], color="0.88", lw=0, label="not informed by motion")
+        ax.legend(loc="upper left", ncols=4 if show_ref else 3)
+    return ax
+
+
+def relation_bins(x: np.ndarray, stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  *, bins: int = RELATION_BINS) -> dict[str, np.ndarray]:
+    """Stiffness in bins of ``x`` with equal counts: median, spread over the trial and band.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Angle or torque of the informed samples.
+    stiffness, lo, hi : ndarray, shape (n,)
+        Estimate and band bounds at those samples.
+    bins : int
+        Bins wanted; fewer when a bin would hold under :data:`MIN_BIN_SAMPLES`.
+
+    Returns
+    -------
+    dict of ndarray, shape (k,)
+        ``x`` (median of x in the bin), ``median``, ``p10``, ``p90`` (of the estimate in the bin),
+        ``lo``, ``hi`` (medians of the band's bounds in the bin), ``count``.
+    """
+    k = int(max(1, min(bins, x.size // MIN_BIN_SAMPLES)))
+    order = np.argsort(x, kind="stable")
+    groups = [g for g in np.array_split(order, k) if g.size]
+    out = {key: np.array([f(v[g]) for g in groups]) for key, f, v in (
+        ("x", np.median, x), ("median", np.median, stiffness), ("p10", lambda s: np.percentile(s, 10), stiffness),
+        ("p90", lambda s: np.percentile(s, 90), stiffness), ("lo", np.median, lo), ("hi", np.median, hi))}
+    out["count"] = np.array([g.size for g in groups])
+    return out
+
+
+def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATION_BINS):
+    """Stiffness against angle or torque: medians in bins with the band, over the informed samples.
+
+    Grey points are the informed samples (thinned); black dots are the medians of the estimate
+    in bins of equal counts, their bars the median band in the bin (the estimate's uncertainty);
+    the blue shading spans the 10th–90th percentiles of the estimate in the bin (how much the
+    stiffness varies at that angle or torque over the trial).
+
+    Parameters
+    ----------
+    result : StiffnessResult
+    against : {"angle", "torque"}
+    ax : matplotlib.axes.Axes, optional
+    bins : int
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    if against not in ("angle", "torque"):
+        raise ValueError(f"against must be 'angle' or 'torque', not {against!r}")
+    ax = _axes(ax)
+    trial, u, word = result.trial, result.trial.units, names(result.trial)
+    key, x = ("angle", trial.angle) if against == "angle" else recorded_torque(result)
+    ax.set_xlabel(f"{word[key]} [{u[key]}]")
+    ax.set_ylabel(f"stiffness [{u['stiffness']}]")
+    obs = np.flatnonzero(result.observable)
+    if obs.size == 0:
+        ax.text(0.5, 0.5, "no sample is informed by motion", transform=ax.transAxes, ha="center")
+        return ax
+    thin = obs[::max(1, int(np.ceil(obs.size / SCATTER_POINTS)))]
+    ax.scatter(x[thin], result.stiffness[thin], s=2, lw=0, color="0.6", alpha=0.5, rasterized=True,
+               label="informed samples")
+    b = relation_bins(x[obs], result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs], bins=bins)
+    ax.fill_between(b["x"], b["p10"], b["p90"], color="C0", alpha=0.2, lw=0,
+                    label="10th–90th percentile in the bin")
+    ax.errorbar(b["x"], b["median"], yerr=[b["median"] - b["lo"], b["hi"] - b["median"]], fmt="o-", color="k",
+                ms=3.5, lw=0.9, capsize=2.5, label=f"median in the bin, median {100 * result.ci_level:.0f} % band")
+    limits = robust_limits(np.concatenate([result.stiffness[thin], b["lo"], b["hi"]]), pad=0.15, pct=(0.5, 99.5))
+    if limits is not None:
+        ax.set_ylim(*limits)
+    ax.legend(loc="best", framealpha=0.85)
+    return ax
