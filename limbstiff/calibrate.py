@@ -34,6 +34,8 @@ class SpringCalibration:
         Pairs used.
     x_range : tuple of float, m (rad)
         Range of displacement the calibration covers.
+    kind : {"translational", "rotational"}
+        Whether x is a length and f a force (the paper's bench) or an angle and a torque.
     """
 
     a: float
@@ -42,6 +44,7 @@ class SpringCalibration:
     error_margin: float
     n_pairs: int
     x_range: tuple[float, float]
+    kind: str = "translational"
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Spring force f(x) = a·e^{b·x}."""
@@ -51,25 +54,37 @@ class SpringCalibration:
         """Stiffness σ(x) = a·b·e^{b·x}."""
         return self.a * self.b * np.exp(self.b * np.asarray(x, dtype=float))
 
+    @property
+    def units(self) -> dict[str, str]:
+        """SI unit of each number of :meth:`to_dict` (``1``: dimensionless)."""
+        from .trial import SI_UNITS
+        u = SI_UNITS[self.kind]
+        return {"a": u["torque"], "b": f"1/{u['angle']}", "x_range": u["angle"], "rms_log_error": "1",
+                "error_margin": "1", "stiffness": u["stiffness"]}
+
     def to_dict(self) -> dict:
-        return {"model": "exponential", "a": self.a, "b": self.b,
+        return {"model": "exponential", "kind": self.kind, "a": self.a, "b": self.b,
                 "rms_log_error": self.rms_log_error, "error_margin": self.error_margin,
-                "n_pairs": self.n_pairs, "x_range": list(self.x_range)}
+                "n_pairs": self.n_pairs, "x_range": list(self.x_range), "units": self.units}
 
     @classmethod
     def from_dict(cls, d: dict) -> "SpringCalibration":
         return cls(a=float(d["a"]), b=float(d["b"]), rms_log_error=float(d["rms_log_error"]),
                    error_margin=float(d["error_margin"]), n_pairs=int(d["n_pairs"]),
-                   x_range=(float(d["x_range"][0]), float(d["x_range"][1])))
+                   x_range=(float(d["x_range"][0]), float(d["x_range"][1])),
+                   kind=d.get("kind", "translational"))
 
 
-def fit_exponential_spring(displacement: np.ndarray, force: np.ndarray) -> SpringCalibration:
+def fit_exponential_spring(displacement: np.ndarray, force: np.ndarray, *,
+                           kind: str = "translational") -> SpringCalibration:
     """Regression of ln f on x (Sec. V).
 
     Parameters
     ----------
     displacement : ndarray, shape (n,), m (rad)
     force : ndarray, shape (n,), N (N·m); strictly positive
+    kind : {"translational", "rotational"}
+        Length and force, or angle and torque (carried into the calibration's units).
 
     Returns
     -------
@@ -98,4 +113,4 @@ def fit_exponential_spring(displacement: np.ndarray, force: np.ndarray) -> Sprin
     sme = float(np.sqrt(np.mean(resid ** 2)))
     return SpringCalibration(a=float(np.exp(intercept)), b=float(slope), rms_log_error=sme,
                              error_margin=float(np.expm1(sme)), n_pairs=int(x.size),
-                             x_range=(float(x.min()), float(x.max())))
+                             x_range=(float(x.min()), float(x.max())), kind=kind)

@@ -52,6 +52,25 @@ def test_calibrate_command(tmp_path):
     cal = json.loads(out.read_text())
     assert cal["b"] == pytest.approx(100.0, rel=1e-9)    # 0.1 /mm = 100 /m
     assert cal["a"] == pytest.approx(0.5, rel=1e-9)
+    assert cal["kind"] == "translational"
+    assert cal["units"] == {"a": "N", "b": "1/m", "x_range": "m", "rms_log_error": "1", "error_margin": "1",
+                            "stiffness": "N/m"}
+
+
+def test_calibrate_command_rotational_units(tmp_path):
+    """Angle and torque pairs give a rotational calibration in N·m and 1/rad (b = 0.1 /deg =
+    5.7296 /rad), which reads back as such."""
+    from limbstiff.calibrate import SpringCalibration
+    x = np.linspace(1.0, 20.0, 12)                       # deg
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text("angle_deg,torque_Nm\n" + "".join(f"{xi},{2.0 * np.exp(0.1 * xi)}\n" for xi in x))
+    out = tmp_path / "cal.json"
+    res = CliRunner().invoke(main, ["calibrate", str(pairs), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    cal = json.loads(out.read_text())
+    assert cal["kind"] == "rotational" and cal["units"]["a"] == "N·m" and cal["units"]["b"] == "1/rad"
+    assert cal["b"] == pytest.approx(0.1 * 180 / np.pi, rel=1e-9)
+    assert SpringCalibration.from_dict(cal).kind == "rotational"
 
 
 def test_calibrate_command_bad_file(tmp_path):

@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
@@ -33,6 +34,12 @@ def test_analyze_writes_the_contract(trial_file, tmp_path):
     frame = pd.read_csv(out / "t1" / "stiffness.csv")
     assert list(frame.columns) == ["time_s", "stiffness", "stiffness_lo", "stiffness_hi", "observable"]
     assert len(frame) == 4000 and set(frame["observable"].unique()) <= {0, 1}
+    # stiffness written to 5 significant digits (the mantissa's digits without sign and point),
+    # time to the sample
+    rows = (out / "t1" / "stiffness.csv").read_text().splitlines()[1:]
+    digits = [len(v.lstrip("-").replace(".", "").lstrip("0")) for r in rows for v in r.split(",")[1:4]]
+    assert max(digits) == 5 and np.median(digits) >= 4
+    np.testing.assert_allclose(np.diff(frame["time_s"]), 1 / 500, rtol=1e-6)
     summary = json.loads((out / "t1" / "summary.json").read_text())
     assert SUMMARY_KEYS <= set(summary)
     assert summary["variant"] == "external" and summary["metadata"]["subject"] == "S01"

@@ -22,9 +22,9 @@ def command(pairs, x_col, f_col, out):
     from ..files.pairs import read_pairs
     from ..files.outputs import write_json
 
-    x, f = read_pairs(pairs, displacement=x_col, force=f_col)
+    x, f, kind = read_pairs(pairs, displacement=x_col, force=f_col)
     try:
-        cal = fit_exponential_spring(x, f)
+        cal = fit_exponential_spring(x, f, kind=kind)
     except ValueError as exc:
         fail(f"{pairs}: {exc}")
     write_json(out, cal.to_dict())

@@ -28,7 +28,7 @@ def _pick(headers, wanted, given, what, path):
 
 
 def read_pairs(path: str | Path, *, displacement: str | None = None,
-               force: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+               force: str | None = None) -> tuple[np.ndarray, np.ndarray, str]:
     """Force–displacement pairs from a CSV file, in SI units.
 
     Parameters
@@ -43,6 +43,8 @@ def read_pairs(path: str | Path, *, displacement: str | None = None,
     -------
     displacement : ndarray, shape (n,), m (rad)
     force : ndarray, shape (n,), N (N·m)
+    kind : {"rotational", "translational"}
+        From the displacement's unit (an angle or a length).
 
     Raises
     ------
@@ -65,7 +67,7 @@ def read_pairs(path: str | Path, *, displacement: str | None = None,
     frame = pd.read_csv(_io.StringIO("\n".join(lines)), dtype=str)
     headers = [str(h).strip() for h in frame.columns]
     frame.columns = headers
-    out = []
+    out, dimensions = [], []
     for given, wanted, what in ((displacement, _DISPLACEMENT, "displacement"), (force, _FORCE, "force")):
         col = _pick(headers, wanted, given, what, path)
         parsed = parse_standard_header(col)
@@ -77,4 +79,5 @@ def read_pairs(path: str | Path, *, displacement: str | None = None,
         if bad.size:
             raise TrialError(path, f"column '{col}' has a missing or non-numeric value at data row {bad[0] + 1}")
         out.append(to_si(values, unit))
-    return out[0], out[1]
+        dimensions.append(UNITS[unit].dimension)
+    return out[0], out[1], "rotational" if dimensions[0] == "angle" else "translational"
