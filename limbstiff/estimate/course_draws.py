@@ -54,12 +54,19 @@ def course_deviations(steps: ModelSteps, noise: NoiseLevels, *, draws: int, rng:
     for first in range(0, draws, block):
         k = min(block, draws - first)
         start = np.asarray(steps.initial_mean) + rng.standard_normal((k, 2)) @ chol.T
-        w_k, w_c, w_s, v = rng.standard_normal((4, k, n)) * sd[:, None, None]
+        noise_draws = rng.standard_normal((4, k, n))
+        noise_draws *= sd[:, None, None]
+        w_k, w_c, w_s, v = noise_draws           # views; summed in place below (a long trial's n is large)
         w_k[:, 0] = w_c[:, 0] = w_s[:, 0] = 0.0
-        stiffness = start[:, 1:] + np.cumsum(w_k + w_c, axis=1)
-        change = np.zeros((k, n))
-        change[:, 1:] = stiffness[:, :-1] * steps.increments[1:] + steps.deflection[1:] * w_c[:, 1:] + w_s[:, 1:]
-        measured = start[:, :1] + np.cumsum(change, axis=1) + v
+        stiffness = np.add(w_k, w_c, out=w_k)
+        np.cumsum(stiffness, axis=1, out=stiffness)
+        stiffness += start[:, 1:]
+        change = w_s                              # change[i] = σ[i−1]·Δy[i] + g[i]·w_c[i] + w_s[i]
+        change[:, 1:] += stiffness[:, :-1] * steps.increments[1:]
+        change[:, 1:] += steps.deflection[1:] * w_c[:, 1:]
+        measured = np.cumsum(change, axis=1, out=change)
+        measured += start[:, :1]
+        measured += v
         for j in range(k):
             smoothed = kalman_smoother(steps.increments, measured[j], noise, step=dt, deflection=steps.deflection,
                                        initial_mean=steps.initial_mean, initial_cov=steps.initial_cov,

@@ -154,7 +154,8 @@ def footer(fig, lines: Iterable[str], page: int | None = None, pages: int | None
 
 def shade_false(ax, time: np.ndarray, mask: np.ndarray, **kw) -> None:
     """Shade the stretches of ``time`` where ``mask`` is False (grey by default)."""
-    edges = np.diff(np.concatenate([[0], (~np.asarray(mask, bool)).astype(int), [0]]))
+    false = np.concatenate([[0], (~np.asarray(mask, bool)).view(np.int8), [0]])   # one byte a sample
+    edges = np.diff(false)
     style_ = {"color": "0.88", "lw": 0, "zorder": 0, **kw}
     for lo, hi in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
         ax.axvspan(time[lo], time[min(hi, len(time) - 1)], **style_)
@@ -191,10 +192,9 @@ def envelope(t: np.ndarray, *ys: np.ndarray, points: int = LINE_POINTS):
     out = []
     for y in ys:
         y = np.asarray(y, float)
-        filled = np.where(np.isfinite(y), y, np.nan)
         with np.errstate(invalid="ignore"):
-            lo = np.fmin.reduceat(filled, starts)
-            hi = np.fmax.reduceat(filled, starts)
+            lo = np.fmin.reduceat(y, starts)
+            hi = np.fmax.reduceat(y, starts)
         out.append(np.column_stack([lo, hi]).ravel())
     return (t_out, *out)
 
@@ -219,9 +219,15 @@ def is_constant(x: np.ndarray) -> bool:
     return bool(np.ptp(x) <= 1e-12 * max(float(np.max(np.abs(x))), 1e-300))
 
 
+#: Values whose percentiles set an axis's limits at most (evenly thinned beyond: the limits of a
+#: long trial are the same within print resolution, at a fraction of the memory).
+LIMIT_VALUES = 200_000
+
+
 def robust_limits(values: np.ndarray, pad: float = 0.15, pct: tuple[float, float] = (1, 99)):
     """Axis limits from percentiles of the finite values, padded; None when there are none."""
     v = np.asarray(values, float)
+    v = v[::max(1, v.size // LIMIT_VALUES)]
     v = v[np.isfinite(v)]
     if v.size == 0:
         return None

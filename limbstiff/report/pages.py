@@ -14,7 +14,7 @@ import textwrap
 import numpy as np
 
 from ..digest import headline_rows, recording_rows, verdict_line
-from .common import A4, FONT, envelope, envelope_band, fmt, grid, new_page, robust_limits, shade_false, text_panel
+from .common import A4, FONT, LIMIT_VALUES, envelope, envelope_band, fmt, grid, new_page, robust_limits, shade_false, text_panel
 from .plots import names, plot_relation, plot_stiffness, recorded_torque
 
 #: Seconds at the start of a trial left out of the reference error (as in reference_error()).
@@ -138,17 +138,23 @@ def reference_page(result):
     ax0 = fig.add_subplot(gs[0, :])
     ax1 = fig.add_subplot(gs[1, :], sharex=ax0)
     plot_stiffness(result, ax=ax0)
-    safe = np.where(ref != 0, np.abs(ref), np.nan)
-    rel = 100 * (result.stiffness - ref) / safe
-    width = 100 * 0.5 * (result.stiffness_hi - result.stiffness_lo) / safe
+    safe = np.abs(ref)                      # in place below: a long trial's arrays are large
+    safe[safe == 0] = np.nan
+    rel = result.stiffness - ref
+    rel *= 100 / safe
+    width = result.stiffness_hi - result.stiffness_lo
+    width *= 50 / safe
+    del safe
     shade_false(ax1, t, result.observable)
     ax1.fill_between(*envelope_band(t, -width, width), color="C0", alpha=0.25, lw=0,
                      label=f"half-width of the {100 * result.ci_level:.0f} % band")
     ax1.plot(*envelope(t, rel), lw=0.7, color="C3", label="(estimate − reference) / reference")
     ax1.axhline(0, color="k", lw=0.6)
     ax1.axvspan(t[0], t[0] + REFERENCE_SKIP_S, color="C1", alpha=0.12, lw=0, label="left out (first 2 s)")
-    use = result.observable & (t - t[0] >= REFERENCE_SKIP_S)
-    limits = robust_limits(np.concatenate([rel[use], width[use], -width[use]]) if use.any() else rel, pad=0.3)
+    use = result.observable & (t >= t[0] + REFERENCE_SKIP_S)
+    shown = np.flatnonzero(use)
+    shown = shown[::max(1, shown.size // LIMIT_VALUES)]
+    limits = robust_limits(np.concatenate([rel[shown], width[shown], -width[shown]]) if shown.size else rel, pad=0.3)
     if limits is not None:
         ax1.set_ylim(*limits)
     ax1.set_ylabel("relative error [%]")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..estimate.observer import informed_samples
-from .common import envelope, envelope_band, robust_limits, shade_false
+from .common import LIMIT_VALUES, envelope, envelope_band, robust_limits, shade_false
 
 #: Bins of the stiffness-against-angle/torque plots (equal counts of informed samples).
 RELATION_BINS = 12
@@ -18,6 +18,9 @@ RELATION_BINS = 12
 MIN_BIN_SAMPLES = 30
 #: Points of the grey scatter behind the binned medians at most (evenly thinned beyond).
 SCATTER_POINTS = 4000
+#: Informed samples the bins are taken over at most (evenly thinned beyond: the medians of a long
+#: trial are the same within print resolution, at a fraction of the memory).
+BIN_SAMPLES = 500_000
 
 
 def _axes(ax):
@@ -67,7 +70,8 @@ def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = Tr
     show_ref = reference and result.reference is not None
     if show_ref:
         ax.plot(*envelope(t, result.reference), lw=0.9, color="k", ls="--", label="reference")
-    obs = informed_samples(result.observable)
+    obs = np.flatnonzero(informed_samples(result.observable))
+    obs = obs[::max(1, obs.size // LIMIT_VALUES)]
     values = [result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs]]
     if show_ref:
         values.append(result.reference[obs])
@@ -145,6 +149,7 @@ def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATI
     thin = obs[::max(1, int(np.ceil(obs.size / SCATTER_POINTS)))]
     ax.scatter(x[thin], result.stiffness[thin], s=2, lw=0, color="0.6", alpha=0.5, rasterized=True,
                label="informed samples")
+    obs = obs[::max(1, obs.size // BIN_SAMPLES)]
     b = relation_bins(x[obs], result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs], bins=bins)
     ax.fill_between(b["x"], b["p10"], b["p90"], color="C0", alpha=0.2, lw=0,
                     label="10th–90th percentile in the bin")
