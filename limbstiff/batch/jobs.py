@@ -11,6 +11,7 @@ import dataclasses
 import functools
 import hashlib
 import json
+from concurrent.futures import Executor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
@@ -111,7 +112,7 @@ def _analyse_and_write(job: BatchJob) -> dict:
                                                 "run_sha256": opts["run_sha256"]})
 
 
-def _run(paths, work, options, *, out, jobs, progress, marker: str) -> BatchReport:
+def _run(paths, work, options, *, out, jobs, executor, progress, marker: str) -> BatchReport:
     """Discover the trials, run ``work`` on each (one failure never stops the others), and keep
     ``summary.csv`` current after every finished trial, so an interrupted run leaves it true.
 
@@ -124,6 +125,9 @@ def _run(paths, work, options, *, out, jobs, progress, marker: str) -> BatchRepo
     if not files:
         raise NothingToDo("; ".join(why for _, why in missing))
     out = writable_folder(out)
+    if executor is not None:
+        from .cluster import check_shared_folder
+        check_shared_folder(executor, out)      # workers write there: before any trial runs
     names, notes = output_names(files)
     jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
     lost = [TrialOutcome(Path(text).stem, text, "failed", why) for text, why in missing]
@@ -146,7 +150,7 @@ def _run(paths, work, options, *, out, jobs, progress, marker: str) -> BatchRepo
             progress(outcome, done, total)
 
     outcomes = run_jobs(jobs_list, functools.partial(run_one, analyse_and_write=work),
-                        n_jobs=jobs, progress=record)
+                        n_jobs=jobs, executor=executor, progress=record)
     write_summary_csv(out / SUMMARY_CSV, table(outcomes))
     return BatchReport(outcomes=tuple(outcomes + lost), out=out, notes=tuple(notes))
 
@@ -180,22 +184,24 @@ def _identify_and_write(job: BatchJob) -> dict:
 
 
 def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-identify",
-                   jobs: int = 1, seed: int = 0, overwrite: bool = False,
+                   jobs: int = 1, seed: int = 0, overwrite: bool = False, executor: Executor | None = None,
                    progress: Callable[[TrialOutcome, int, int], None] | None = None) -> BatchReport:
     """Identify inertia and damping of every trial named by ``paths`` (``limbstiff identify``).
 
     Writes ``OUT/<trial>/posterior.json`` (intervals, noise levels, MCMC diagnostics),
-    ``OUT/<trial>/draws.csv`` (posterior draws) and ``OUT/summary.csv``.
+    ``OUT/<trial>/draws.csv`` (posterior draws) and ``OUT/summary.csv``. ``jobs``, ``executor``
+    and ``progress`` as for :func:`analyze_files`.
     """
     protocol = protocol or Protocol()
     options = {"protocol": protocol, "seed": seed, "overwrite": overwrite,
                "run_sha256": run_fingerprint(protocol, seed=seed)}
-    return _run(paths, _identify_and_write, options, out=out, jobs=jobs, progress=progress, marker="posterior.json")
+    return _run(paths, _identify_and_write, options, out=out, jobs=jobs, executor=executor, progress=progress,
+                marker="posterior.json")
 
 
 def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",
                   jobs: int = 1, seed: int = 0, pdf: bool = True, overwrite: bool = False,
-                  resume: bool = False, reference=None, sort_by: Sequence[str] = (),
+                  resume: bool = False, reference=None, sort_by: Sequence[str] = (), executor: Executor | None = None,
                   progress: Callable[[TrialOutcome, int, int], None] | None = None) -> BatchReport:
     """Analyse every trial named by ``paths`` and write the outputs of INTERFACE.md section 4.
 
@@ -208,7 +214,7 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     out : str or Path
         Output folder; one sub-folder per trial.
     jobs : int
-        Worker processes.
+        Local worker processes (when no ``executor`` is given).
     seed : int
         Seed of every random draw.
     pdf : bool
@@ -222,6 +228,10 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
         Reference stiffness curve from ``limbstiff calibrate``.
     sort_by : sequence of str
         Metadata keys (``subject``, ``condition``…) that order and group ``overview.pdf``.
+    executor : concurrent.futures.Executor, optional
+        Where the trials run instead of local processes, e.g. a dask cluster's
+        (:func:`limbstiff.batch.cluster.dask_executor`); its workers write the outputs, so ``out``
+        must be on a file system they share (checked before any trial runs).
     progress : callable, optional
         Called as ``progress(outcome, done, total)`` after each trial.
 
@@ -237,7 +247,8 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     protocol = protocol or Protocol()
     options = {"protocol": protocol, "seed": seed, "pdf": pdf, "overwrite": overwrite, "resume": resume,
                "reference": reference, "run_sha256": run_fingerprint(protocol, seed=seed, reference=reference)}
-    report = _run(paths, _analyse_and_write, options, out=out, jobs=jobs, progress=progress, marker="summary.json")
+    report = _run(paths, _analyse_and_write, options, out=out, jobs=jobs, executor=executor, progress=progress,
+                  marker="summary.json")
     if pdf:
         report = _overview(report, protocol, sort_by)
     return report

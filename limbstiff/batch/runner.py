@@ -6,7 +6,9 @@ Each trial's error becomes a ``failed`` outcome with a one-line reason (a row of
 
 from __future__ import annotations
 
-from concurrent.futures import ProcessPoolExecutor, as_completed
+import functools
+import os
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
@@ -56,23 +58,48 @@ def _one_line(text: str) -> str:
 
 
 def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome], *, n_jobs: int = 1,
+             executor: Executor | None = None,
              progress: Callable[[TrialOutcome, int, int], None] | None = None) -> list[TrialOutcome]:
-    """Run ``worker`` on every job, serially or in ``n_jobs`` processes, in input order."""
+    """Run ``worker`` on every job, in input order: serially, in ``n_jobs`` local processes, or on
+    ``executor`` (any :class:`concurrent.futures.Executor`, e.g. a dask cluster's; it is not shut
+    down here, and its tasks run in the client's working directory).
+
+    A task whose worker dies (killed, out of memory) is a failed outcome; the others go on.
+    """
     outcomes: list[TrialOutcome | None] = [None] * len(jobs)
-    if n_jobs <= 1 or len(jobs) <= 1:
+    if executor is None and (n_jobs <= 1 or len(jobs) <= 1):
         for i, job in enumerate(jobs):
             outcomes[i] = worker(job)
             if progress:
                 progress(outcomes[i], i + 1, len(jobs))
-    else:
-        pool = ProcessPoolExecutor(max_workers=n_jobs)
-        try:
-            futures = {pool.submit(worker, job): i for i, job in enumerate(jobs)}
-            for done, fut in enumerate(as_completed(futures), start=1):
-                outcomes[futures[fut]] = fut.result()
-                if progress:
-                    progress(outcomes[futures[fut]], done, len(jobs))
-        finally:
-            # on Ctrl-C, trials not yet started are dropped; finished ones are complete on disk
+        return [o for o in outcomes if o is not None]
+    own = executor is None
+    pool = ProcessPoolExecutor(max_workers=n_jobs) if own else executor
+    if not own:
+        from .cluster import in_folder
+        worker = functools.partial(in_folder, os.getcwd(), worker)
+    futures = {}
+    try:
+        futures = {pool.submit(worker, job): i for i, job in enumerate(jobs)}
+        for done, fut in enumerate(as_completed(futures), start=1):
+            i = futures[fut]
+            outcomes[i] = _outcome(fut, jobs[i])
+            if progress:
+                progress(outcomes[i], done, len(jobs))
+    finally:
+        # on Ctrl-C, trials not yet started are dropped; finished ones are complete on disk
+        if own:
             pool.shutdown(wait=True, cancel_futures=True)
+        else:
+            for fut in futures:
+                fut.cancel()
     return [o for o in outcomes if o is not None]
+
+
+def _outcome(future, job: BatchJob) -> TrialOutcome:
+    """The outcome a finished task returned, or a failed one when its worker was lost."""
+    try:
+        return future.result()
+    except Exception as exc:  # noqa: BLE001 - a lost worker fails its trial, not the batch
+        return TrialOutcome(job.name, str(job.source), "failed",
+                            _one_line(f"{job.source}: the worker running it was lost ({type(exc).__name__}: {exc})"))

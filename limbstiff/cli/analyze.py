@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
-                      protocol_option, reports_errors, seed_option)
+                      protocol_option, reports_errors, scheduler_option, seed_option)
 
 
 @click.command("analyze")
@@ -13,6 +13,7 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 @protocol_option
 @out_option("limbstiff-out")
 @jobs_option
+@scheduler_option
 @seed_option
 @click.option("--no-pdf", is_flag=True, help="Do not write report.pdf.")
 @click.option("--inertia", type=click.FloatRange(min=0, min_open=True), default=None,
@@ -31,16 +32,18 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 @click.option("--resume", is_flag=True,
               help="Skip trials whose outputs are complete and match the input's SHA-256 and the settings.")
 @reports_errors
-def command(paths, protocol_path, out, jobs, seed, no_pdf, inertia, damping, observer_gain, estimator,
+def command(paths, protocol_path, out, jobs, scheduler, seed, no_pdf, inertia, damping, observer_gain, estimator,
             reference_path, sort_by, overwrite, resume):
     """Estimate the stiffness of every trial in PATHS (files, folders, globs)."""
     from ..batch.jobs import analyze_files, check_reference
+    from ..batch.cluster import dask_executor
     from .progress import Progress
 
     protocol = load_protocol_or_default(protocol_path).override(
         inertia=inertia, damping=damping, observer_gain=observer_gain, estimator=estimator)
     reference = check_reference(reference_path) if reference_path else None
     keys = [k.strip() for k in sort_by.split(",") if k.strip()]
-    finish(analyze_files(paths, protocol=protocol, out=out, jobs=n_jobs(jobs), seed=seed, pdf=not no_pdf,
-                         overwrite=overwrite, resume=resume, reference=reference, sort_by=keys,
-                         progress=Progress()))
+    with dask_executor(scheduler) as executor:
+        finish(analyze_files(paths, protocol=protocol, out=out, jobs=n_jobs(jobs), seed=seed, pdf=not no_pdf,
+                             overwrite=overwrite, resume=resume, reference=reference, sort_by=keys,
+                             executor=executor, progress=Progress()))

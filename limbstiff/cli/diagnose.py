@@ -8,7 +8,7 @@ import sys
 import click
 
 from .options import (fail, jobs_option, load_protocol_or_default, n_jobs, out_option, protocol_option,
-                      reports_errors, seed_option)
+                      reports_errors, scheduler_option, seed_option)
 
 
 @click.command("diagnose")
@@ -21,16 +21,20 @@ from .options import (fail, jobs_option, load_protocol_or_default, n_jobs, out_o
 @click.option("--damping", type=click.FloatRange(min=0, min_open=True), default=None,
               help="The damping b the set-up assumes (N·m·s/rad, or N·s/m); otherwise identified.")
 @jobs_option
+@scheduler_option
 @reports_errors
-def command(paths, protocol_path, out, seed, inertia, damping, jobs):
+def command(paths, protocol_path, out, seed, inertia, damping, jobs, scheduler):
     """Diagnose the gap between the nominal model and the trials in PATHS (together: the effects'
     amplitudes are shared, each trial is held out block by block); write diagnosis.json and
     diagnosis.pdf."""
     from ..gap.run import diagnose_files
+    from ..batch.cluster import dask_executor
     from .progress import Progress
 
-    report = diagnose_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, seed=seed,
-                            inertia=inertia, damping=damping, jobs=n_jobs(jobs), progress=Progress())
+    with dask_executor(scheduler) as executor:
+        report = diagnose_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, seed=seed,
+                                inertia=inertia, damping=damping, jobs=n_jobs(jobs), executor=executor,
+                                progress=Progress())
     for line in report.failed:
         click.echo(f"limbstiff: error: {line}", err=True)
     if report.diagnosis is None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
-                      protocol_option, reports_errors, seed_option)
+                      protocol_option, reports_errors, scheduler_option, seed_option)
 
 
 @click.command("identify")
@@ -13,13 +13,16 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 @protocol_option
 @out_option("limbstiff-identify")
 @jobs_option
+@scheduler_option
 @seed_option
 @overwrite_option
 @reports_errors
-def command(paths, protocol_path, out, jobs, seed, overwrite):
+def command(paths, protocol_path, out, jobs, scheduler, seed, overwrite):
     """Identify inertia and damping of every trial in PATHS; write posterior.json and draws.csv."""
+    from ..batch.cluster import dask_executor
     from .progress import Progress
     from ..batch.jobs import identify_files
 
-    finish(identify_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, jobs=n_jobs(jobs),
-                          seed=seed, overwrite=overwrite, progress=Progress()))
+    with dask_executor(scheduler) as executor:
+        finish(identify_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, jobs=n_jobs(jobs),
+                              seed=seed, overwrite=overwrite, executor=executor, progress=Progress()))

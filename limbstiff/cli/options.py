@@ -21,6 +21,11 @@ seed_option = click.option("--seed", type=int, default=0, show_default=True,
 jobs_option = click.option("--jobs", type=click.IntRange(min=1), default=None,
                            help="Trials run in parallel processes (default: number of cores).")
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace outputs that already exist.")
+scheduler_option = click.option(
+    "--scheduler", default=None, metavar="ADDRESS",
+    help="Run the trials on the dask.distributed scheduler at ADDRESS (tcp://host:8786) instead of local "
+         "processes; inputs and --out must be on a file system the workers share. Needs "
+         "pip install 'limbstiff[dask]'.")
 
 
 def finish(report):

@@ -356,14 +356,15 @@ def _read_and_analyze(job) -> dict:
 
 def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-diagnose",
                    seed: int = 0, inertia: float | None = None, damping: float | None = None, jobs: int = 1,
-                   progress=None) -> DiagnoseReport:
+                   executor=None, progress=None) -> DiagnoseReport:
     """Read the trials named by ``paths``, diagnose them together, write the outputs.
 
     Writes ``OUT/diagnosis.json`` and ``OUT/diagnosis.pdf`` (INTERFACE.md section 5), atomically.
     A trial that cannot be read or analysed is left out with a one-line reason (``failed``);
-    the others are still diagnosed. The trials are read and analysed in ``jobs`` processes by the
-    batch's runner (:func:`limbstiff.batch.runner.run_jobs`); ``progress(outcome, done, total)`` is
-    called after each.
+    the others are still diagnosed. The trials are read and analysed in ``jobs`` processes (or on
+    ``executor``, e.g. a dask cluster's: each trial and its analysis return to this process, which
+    writes the diagnosis) by the batch's runner (:func:`limbstiff.batch.runner.run_jobs`);
+    ``progress(outcome, done, total)`` is called after each.
 
     Raises
     ------
@@ -387,7 +388,7 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     work = [BatchJob(source=f, name=n, out=Path(out), options={"protocol": protocol, "seed": seed})
             for f, n in zip(files, names)]
     outcomes = run_jobs(work, functools.partial(run_one, analyse_and_write=_read_and_analyze), n_jobs=jobs,
-                        progress=progress)
+                        executor=executor, progress=progress)
     done = [o.row for o in outcomes if o.status == "ok"]
     trials, results = [r["trial"] for r in done], [r["result"] for r in done]
     failed = [o.error for o in outcomes if o.status != "ok"] + [why for _, why in missing]
