@@ -3,6 +3,8 @@
 import re
 from pathlib import Path
 
+import matplotlib
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -12,10 +14,19 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     for name in ("examples", "protocols"):
         (tmp_path / name).symlink_to(ROOT / name)
     monkeypatch.chdir(tmp_path)
+    # the example draws with pyplot: never open a window, whatever the machine has
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    matplotlib.use("Agg")
     scope: dict = {}
-    exec(compile(block, "README.md", "exec"), scope)
+    try:
+        exec(compile(block, "README.md", "exec"), scope)
+    finally:
+        import matplotlib.pyplot as plt
+        plt.close("all")
     result, batch = scope["result"], scope["batch"]
     assert (tmp_path / "elbow-report.pdf").read_bytes().startswith(b"%PDF")
+    assert (tmp_path / "elbow-stiffness.png").read_bytes().startswith(b"\x89PNG")
+    assert "Verdict" in result.report()
     assert len(result.to_frame()) == result.trial.n_samples
     assert batch.exit_status == 0 and {o.trial for o in batch.outcomes} >= {"elbow"}
     assert (tmp_path / "limbstiff-out" / "elbow" / "summary.json").exists()
