@@ -40,11 +40,15 @@ class Column:
         Unit of that column (for example ``"deg"``); None takes it from the header.
     scale : float
         Factor applied after unit conversion; ``-1`` flips the sign.
+    component : {"x", "y", "z"} or None
+        Which coordinate of a C3D point channel (model outputs such as ``LAnkleAngles``);
+        None for every other channel.
     """
 
     header: str | None = None
     unit: str | None = None
     scale: float = 1.0
+    component: str | None = None
 
 
 @dataclass(frozen=True)
@@ -183,7 +187,9 @@ class Protocol:
             if isinstance(value, (Column, Prior)):
                 value = {g.name: getattr(value, g.name) for g in fields(value)}
             elif f.name == "columns":
-                value = {q: {g.name: getattr(c, g.name) for g in fields(c)} for q, c in value.items()}
+                # a component only where one is set: the settings (and their hash) of other files unchanged
+                value = {q: {g.name: getattr(c, g.name) for g in fields(c)
+                             if g.name != "component" or c.component is not None} for q, c in value.items()}
             out[f.name] = value
         return out
 
@@ -257,12 +263,17 @@ def protocol_from_dict(raw: Mapping[str, Any], *, source: str = "<protocol>") ->
             raise ProtocolError(source, f"unknown quantity '{quantity}' in [columns] "
                                         f"(one of {', '.join(QUANTITIES)})")
         spec = _table(source, f"columns.{quantity}", spec)
-        unknown = set(spec) - {"header", "unit", "scale"}
+        unknown = set(spec) - {"header", "unit", "scale", "component"}
         if unknown:
             raise ProtocolError(source, f"unknown key(s) in [columns.{quantity}]: {', '.join(sorted(unknown))}")
+        component = _typed(source, "component", spec.get("component"), str)
+        if component is not None and component.lower() not in ("x", "y", "z"):
+            raise ProtocolError(source, f"'component' of [columns.{quantity}] must be \"x\", \"y\" or \"z\" "
+                                        f"(a C3D point channel's coordinate), not {component!r}")
         columns[quantity] = Column(header=_typed(source, "header", spec.get("header"), str),
                                    unit=_typed(source, "unit", spec.get("unit"), str),
-                                   scale=float(_typed(source, "scale", spec.get("scale", 1.0), (int, float))))
+                                   scale=float(_typed(source, "scale", spec.get("scale", 1.0), (int, float))),
+                                   component=None if component is None else component.lower())
     kwargs["columns"] = columns
     priors = _table(source, "priors", raw.get("priors", {}))
     for name, spec in priors.items():

@@ -35,7 +35,7 @@ def _package_modules() -> set[str]:
 
 
 def _mapped_modules() -> set[str]:
-    rows = re.findall(r"^\| `(limbstiff(?:\.[a-z_]+)*)` \|", MAP.read_text(encoding="utf-8"), flags=re.M)
+    rows = re.findall(r"^\| `(limbstiff(?:\.[a-z_][a-z_0-9]*)*)` \|", MAP.read_text(encoding="utf-8"), flags=re.M)
     assert rows, "no module rows found in docs/architecture.md"
     return set(rows)
 

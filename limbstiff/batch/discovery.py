@@ -15,7 +15,7 @@ from ..errors import LimbstiffError
 
 #: What folders are searched for. ``.txt`` is read when named, but not searched for: a data
 #: folder's README.txt or notes would otherwise become failed trials.
-FOLDER_EXTENSIONS = (".csv", ".tsv", ".mat")
+FOLDER_EXTENSIONS = (".csv", ".tsv", ".mat", ".c3d")
 
 class NothingToDo(LimbstiffError):
     """No trial file was found in the paths given."""

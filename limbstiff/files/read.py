@@ -4,6 +4,7 @@
 |---|---|
 | ``.csv``, ``.tsv``, ``.txt`` | :func:`limbstiff.files.text.read_text` (comma, tab or semicolon, detected) |
 | ``.mat`` | :func:`limbstiff.files.mat.read_mat` (MATLAB v4–v7; v7.3/HDF5 is refused) |
+| ``.c3d`` | :func:`limbstiff.files.c3d.read_c3d` (through a protocol; the optional ``ezc3d`` extra) |
 
 Every reader ends in :func:`limbstiff.files.validate.checked_trial`, so a trial is checked the
 same way whatever its format.
@@ -18,7 +19,7 @@ from ..trial import Trial
 from .validate import read_bytes
 
 #: Accepted extensions (lower case) and the module whose reader handles them.
-EXTENSIONS = {".csv": "text", ".tsv": "text", ".txt": "text", ".mat": "mat"}
+EXTENSIONS = {".csv": "text", ".tsv": "text", ".txt": "text", ".mat": "mat", ".c3d": "c3d"}
 
 
 def read_trial(path, protocol=None, *, name: str | None = None) -> Trial:
@@ -29,7 +30,8 @@ def read_trial(path, protocol=None, *, name: str | None = None) -> Trial:
     path : str or path-like
         A ``.csv``, ``.tsv`` or ``.txt`` file (UTF-8 text: ``# key: value`` metadata lines,
         one header row, an optional unit row, one row per sample; comma, tab or semicolon
-        separated) or a ``.mat`` file (MATLAB v4 to v7: one variable per quantity).
+        separated), a ``.mat`` file (MATLAB v4 to v7: one variable per quantity) or a ``.c3d``
+        file (analog or point channels named by the protocol).
     protocol : Protocol or None
         Maps other column or variable names, units, scales and signs (``protocol.columns``);
         ``delimiter``, ``decimal``, ``unit_row`` of text files; ``sample_rate_hz`` (Hz) of
@@ -60,5 +62,8 @@ def read_trial(path, protocol=None, *, name: str | None = None) -> Trial:
     if reader == "mat":
         from .mat import read_mat
         return read_mat(path, raw, protocol, name=name)
+    if reader == "c3d":
+        from .c3d import read_c3d
+        return read_c3d(path, raw, protocol, name=name)
     from .text import read_text
     return read_text(path, raw, protocol, name=name)
