@@ -25,7 +25,7 @@ from .estimate.kalman import NoiseLevels
 from .filtered import Filtered, filter_trial
 from .mechanics.identification import Identification, identify_mechanics
 from .protocol import Protocol
-from .result import DerivedSettings, StiffnessResult, software
+from .result import DerivedSettings, StiffnessResult, result_units, software
 from .trial import Trial
 from .trial_level import TrialLevel, background_torque, course_draws_for, figure_columns, trial_level
 
@@ -98,7 +98,7 @@ def identification_summary(trial: Trial, ident: Identification, *, ci_level: flo
     post = ident.posterior
     return {"trial": trial.name, "source": trial.source, "source_sha256": trial.source_sha256,
             "ci_level": ci_level, "inertia": ident.inertia.to_dict(), "damping": ident.damping.to_dict(),
-            "covariance": ident.covariance.tolist(), "units": {k: trial.units[k] for k in ("inertia", "damping")},
+            "covariance": ident.covariance.tolist(), "units": result_units(trial.units),
             "identification": ident.to_dict(), "mcmc": None if post is None else post.diagnostics.to_dict(),
             "seed": seed, "warnings": list(trial.warnings) + list(ident.warnings),
             "software": software(), "metadata": dict(trial.metadata)}

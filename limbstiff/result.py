@@ -18,6 +18,7 @@ from .bandwidth import CornerScan
 from .checks import ModelChecks
 from .coupling import CouplingFit
 from .estimate.estimators import EstimatorFit
+from .estimate.kalman import NoiseLevels
 from .estimate.observer import informed_samples
 from .filtered import Filtered
 from .interval import Interval
@@ -276,7 +277,7 @@ class StiffnessResult:
             "mcmc": _jsonable(None if self.posterior is None else self.posterior.diagnostics.to_dict()),
             "reference_error": self.reference_error(),
             "warnings": list(self.warnings),
-            "units": dict(trial.units),
+            "units": result_units(trial.units),
             "seed": self.seed,
             "software": software(),
             "metadata": dict(trial.metadata),
@@ -284,6 +285,13 @@ class StiffnessResult:
             "settings": _jsonable(self.settings),
             "settings_sha256": settings_hash(_jsonable(self.settings), length=64),
         }
+
+
+def result_units(units) -> dict[str, str]:
+    """The ``units`` block of the JSON outputs: the trial's SI units and the Kalman model's noise
+    levels' (``noise_levels`` in ``identification`` and ``details``)."""
+    return {**units, **{f"noise_levels.{k}": v for k, v in NoiseLevels.units(units["torque"],
+                                                                              units["stiffness"]).items()}}
 
 
 def software() -> dict:

@@ -194,6 +194,9 @@ def test_identify_writes_posterior_and_draws(tmp_path):
     post = json.loads((out / "elbow" / "posterior.json").read_text())
     draws = pd.read_csv(out / "elbow" / "draws.csv")
     assert list(draws.columns[:2]) == ["inertia", "damping"] and len(draws) >= 1000
+    # every number has its unit, the noise levels' included (dotted keys name the nested ones)
+    assert post["units"]["inertia"] == "kg·m²" and post["units"]["noise_levels.stiffness_walk"] == "(N·m/rad)²/s"
+    assert {f"noise_levels.{k}" for k in post["identification"]["noise_levels"]} <= set(post["units"])
     mcmc = post["mcmc"]
     assert {"n_walkers", "n_steps", "autocorr_time", "acceptance_fraction", "converged", "seed"} <= set(mcmc)
     assert mcmc["seed"] == 5 and 0.15 < mcmc["acceptance_fraction"] < 0.7

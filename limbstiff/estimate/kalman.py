@@ -60,6 +60,12 @@ class NoiseLevels:
         return {"measurement": self.measurement, "torque_walk": self.torque_walk,
                 "stiffness_walk": self.stiffness_walk, "coupled_walk": self.coupled_walk}
 
+    @staticmethod
+    def units(torque: str, stiffness: str) -> dict[str, str]:
+        """Unit of each level of :meth:`to_dict`, given the trial's torque and stiffness units."""
+        return {"measurement": f"({torque})²", "torque_walk": f"({torque})²/s",
+                "stiffness_walk": f"({stiffness})²/s", "coupled_walk": f"({stiffness})²/s"}
+
     def logs(self) -> np.ndarray:
         """ln (R, Q_s, Q_σ, Q_c), shape (4,): the coordinates the noise fits and the sampler work in."""
         return np.log([self.measurement, self.torque_walk, self.stiffness_walk, self.coupled_walk])

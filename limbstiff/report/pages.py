@@ -134,10 +134,9 @@ def reference_page(result):
     t, u = result.trial.time, result.trial.units
     ref = np.asarray(result.reference, float)
     fig = new_page("Error against the reference stiffness")
-    gs = grid(fig, 3, 2, height_ratios=[1.0, 1.0, 0.8], hspace=0.35, wspace=0.3)
-    ax0 = fig.add_subplot(gs[0, :])
-    ax1 = fig.add_subplot(gs[1, :], sharex=ax0)
-    plot_stiffness(result, ax=ax0)
+    # the estimate against the reference over time is on pages 1 and 2 already
+    gs = grid(fig, 2, 2, height_ratios=[1.0, 0.8], hspace=0.3, wspace=0.3)
+    ax1 = fig.add_subplot(gs[0, :])
     safe = np.abs(ref)                      # in place below: a long trial's arrays are large
     safe[safe == 0] = np.nan
     rel = result.stiffness - ref
@@ -162,8 +161,8 @@ def reference_page(result):
     ax1.set_xlim(t[0], t[-1])
     ax1.legend(loc="upper right", ncols=2)
     err = result.reference_error(skip=REFERENCE_SKIP_S)
-    ax2 = fig.add_subplot(gs[2, 0])
-    ax3 = fig.add_subplot(gs[2, 1])
+    ax2 = fig.add_subplot(gs[1, 0])
+    ax3 = fig.add_subplot(gs[1, 1])
     good = use & np.isfinite(rel)
     if good.any():
         ax2.hist(np.abs(rel[good]), bins=40, color="C3", alpha=0.8, histtype="stepfilled")
