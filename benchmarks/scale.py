@@ -95,14 +95,25 @@ def phases(paths: list[Path], out: Path) -> dict:
     return {k: float(np.mean(v)) for k, v in times.items()}
 
 
+def length_exponent() -> float:
+    """The exponent of analysis time against trial length that ``benchmarks/perf.py`` measured
+    (its section of RESULTS.md); 1 (linear, the pessimistic case) when it has not been run."""
+    import re
+    from _results import RESULTS
+    text = RESULTS.read_text(encoding="utf-8") if RESULTS.exists() else ""
+    found = re.search(r"Fitted exponent of time against length: \*\*([0-9.]+)\*\*", text)
+    return float(found.group(1)) if found else 1.0
+
+
 def study_estimate(per_trial: dict, efficiency: float) -> list[str]:
     """What 10 000 trials of 1–10 minutes cost on 16 nodes, from the measured figures."""
-    # analysis time grows as length^0.34 (benchmarks/perf.py); reading and writing linearly;
+    # analysis time grows as length^exponent (benchmarks/perf.py); reading and writing linearly;
     # the report barely (thinned for drawing)
+    exponent = length_exponent()
     lines = ["| trial length | per trial, one worker | 10 000 trials on 16 nodes × 8 workers |", "|---|---|---|"]
     for minutes in (1, 10):
         factor = (60 * minutes / ARGS.duration)
-        seconds = (per_trial["analysis"] * factor ** 0.34 + per_trial["report"]
+        seconds = (per_trial["analysis"] * factor ** exponent + per_trial["report"]
                    + (per_trial["reading"] + per_trial["writing"]) * factor)
         total = 10_000 * seconds / (16 * 8 * efficiency)
         lines.append(f"| {minutes} min | {seconds:.1f} s | {total / 60:.0f} min (at efficiency {efficiency:.2f}) |")
@@ -143,8 +154,8 @@ def main() -> None:
               f"Within a trial's compute (mean over {len(paths[::10])} trials, one process): "
               + ", ".join(f"{k} {v:.2f} s ({100 * v / total:.0f} %)" for k, v in per_trial.items()) + ".", "",
               "What a 10 000-trial study costs on a 16-node cluster (8 single-threaded workers a node, the "
-              "efficiency measured with 2 workers on this machine; analysis time ∝ length^0.34 from "
-              "`benchmarks/perf.py`, reading and writing ∝ length):", ""]
+              f"efficiency measured with 2 workers on this machine; analysis time ∝ length^{length_exponent():.2f} "
+              "from `benchmarks/perf.py`, reading and writing ∝ length):", ""]
     two = runs.get(2) or runs[ARGS.workers[-1]]
     eff = (two["trials"] / two["wall"]) / (2 * base) if 2 in runs else 1.0
     lines += study_estimate(per_trial, eff)

@@ -34,8 +34,9 @@ class SpringCalibration:
         Pairs used.
     x_range : tuple of float, m (rad)
         Range of displacement the calibration covers.
-    kind : {"translational", "rotational"}
-        Whether x is a length and f a force (the paper's bench) or an angle and a torque.
+    kind : {"translational", "rotational"} or None
+        Whether x is a length and f a force (the paper's bench) or an angle and a torque; None
+        for a calibration file written before it was recorded (then not checked against trials).
     """
 
     a: float
@@ -44,7 +45,7 @@ class SpringCalibration:
     error_margin: float
     n_pairs: int
     x_range: tuple[float, float]
-    kind: str = "translational"
+    kind: str | None = "translational"
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Spring force f(x) = a·e^{b·x}."""
@@ -58,6 +59,8 @@ class SpringCalibration:
     def units(self) -> dict[str, str]:
         """SI unit of each number of :meth:`to_dict` (``1``: dimensionless)."""
         from .trial import SI_UNITS
+        if self.kind is None:
+            return {}
         u = SI_UNITS[self.kind]
         return {"a": u["torque"], "b": f"1/{u['angle']}", "x_range": u["angle"], "rms_log_error": "1",
                 "error_margin": "1", "stiffness": u["stiffness"]}
@@ -72,7 +75,14 @@ class SpringCalibration:
         return cls(a=float(d["a"]), b=float(d["b"]), rms_log_error=float(d["rms_log_error"]),
                    error_margin=float(d["error_margin"]), n_pairs=int(d["n_pairs"]),
                    x_range=(float(d["x_range"][0]), float(d["x_range"][1])),
-                   kind=d.get("kind", "translational"))
+                   kind=_kind(d.get("kind")))
+
+
+def _kind(value) -> str | None:
+    """A calibration file's ``kind``, checked (None when the file has none)."""
+    if value not in (None, "translational", "rotational"):
+        raise ValueError(f"kind must be 'translational' or 'rotational', not {value!r}")
+    return value
 
 
 def fit_exponential_spring(displacement: np.ndarray, force: np.ndarray, *,

@@ -162,6 +162,8 @@ class StiffnessResult:
         matplotlib.axes.Axes
         """
         from .report.plots import plot_relation, plot_stiffness
+        if against not in ("time", "angle", "torque"):
+            raise ValueError(f"against must be 'time', 'angle' or 'torque', not {against!r}")
         if against == "time":
             return plot_stiffness(self, ax=ax, reference=reference)
         return plot_relation(self, against, ax=ax)

@@ -18,7 +18,8 @@ ezc3d = pytest.importorskip("ezc3d")
 
 ANALOG = protocol_from_dict({"columns": {"angle": {"header": "Angle"}, "torque": {"header": "Torque"}}})
 POINTS = protocol_from_dict({"columns": {"angle": {"header": "LAnkleAngles", "component": "x"},
-                                         "torque": {"header": "LAnkleMoment", "component": "X", "scale": -1}}})
+                                         "torque": {"header": "LAnkleMoment", "component": "X", "unit": "Nmm",
+                                                    "scale": -1}}})
 
 
 def write_c3d(path, *, analog=None, analog_rate=1000.0, analog_units=("rad", "Nm"), points=None,
@@ -30,6 +31,7 @@ def write_c3d(path, *, analog=None, analog_rate=1000.0, analog_units=("rad", "Nm
     n_frames = next(iter(points.values())).shape[1]
     c["parameters"]["POINT"]["RATE"]["value"] = [point_rate]
     c["parameters"]["POINT"]["LABELS"]["value"] = tuple(points)
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]                  # markers' unit
     data = np.ones((4, len(points), n_frames))
     data[:3] = np.stack(list(points.values()), axis=1)
     c["data"]["points"] = data
@@ -77,8 +79,8 @@ def test_same_trial_as_csv_and_c3d_gives_the_same_result(elbow, tmp_path):
 
 
 def test_point_channels_units_from_the_file_and_first_frame(tmp_path):
-    """LAnkleAngles x in degrees (POINT:ANGLE_UNITS) and LAnkleMoment x in N·mm
-    (POINT:MOMENT_UNITS, sign flipped by the protocol), at 100 Hz from frame 50: t0 = 0.5 s."""
+    """LAnkleAngles x in degrees (from POINT:ANGLE_UNITS) and LAnkleMoment x in N·mm (the
+    protocol's unit, sign flipped by it), at 100 Hz from frame 50: t0 = 0.5 s."""
     t = np.arange(400) / 100.0
     deg = 10 * np.sin(2 * np.pi * t)
     nmm = 2000 * np.cos(2 * np.pi * t)
@@ -99,7 +101,7 @@ def test_point_channels_units_from_the_file_and_first_frame(tmp_path):
      "'LAnkleAngles' is a point channel with components x, y, z: give component"),
     ({"angle": {"header": "Angle", "component": "y"}, "torque": {"header": "Torque"}},
      "'Angle' is an analog channel: it has no component"),
-    ({"angle": {"header": "Angle"}, "torque": {"header": "LAnkleMoment", "component": "x"}},
+    ({"angle": {"header": "Angle"}, "torque": {"header": "LAnkleMoment", "component": "x", "unit": "Nmm"}},
      "maps analog and point channels"),
     ({"angle": {"header": "Angle"}}, "a C3D file is read through a protocol whose [columns] name the angle and torque"),
 ])
@@ -118,6 +120,26 @@ def test_unit_missing_in_file_and_protocol(tmp_path):
         limbstiff.read_trial(path, ANALOG)
     given = protocol_from_dict({"columns": {"angle": {"header": "Angle", "unit": "deg"}, "torque": {"header": "Torque"}}})
     assert limbstiff.read_trial(path, given).n_samples == 1000
+
+
+def test_units_that_cannot_be_right(tmp_path):
+    """A model moment needs the protocol's unit (body-mass normalisation); a torque whose unit is
+    a length (a marker's POINT:UNITS) and rotational with translational units are refused."""
+    t = np.arange(300) / 100.0
+    wave = np.vstack([np.sin(t), 0 * t, 0 * t])
+    path = write_c3d(tmp_path / "p.c3d", points={"LAnkleAngles": wave, "LAnkleMoment": wave, "LHEE": wave})
+    moment = {"angle": {"header": "LAnkleAngles", "component": "x"},
+              "torque": {"header": "LAnkleMoment", "component": "x"}}
+    with pytest.raises(TrialError, match="'LAnkleMoment' is a model output whose unit the file cannot settle"):
+        limbstiff.read_trial(path, protocol_from_dict({"columns": moment}))
+    marker = {"angle": {"header": "LAnkleAngles", "component": "x"}, "torque": {"header": "LHEE", "component": "z"}}
+    with pytest.raises(TrialError, match="channel 'LHEE': unit 'mm' is not a unit of torque"):
+        limbstiff.read_trial(path, protocol_from_dict({"columns": marker}))
+    analog = write_c3d(tmp_path / "a.c3d", analog={"Angle": np.sin(t.repeat(10)), "Force": np.sin(t.repeat(10))},
+                       analog_units=("deg", "N"), points={"LAnkleAngles": wave})
+    mixed = protocol_from_dict({"columns": {"angle": {"header": "Angle"}, "torque": {"header": "Force"}}})
+    with pytest.raises(TrialError, match="mixes rotational and translational channels"):
+        limbstiff.read_trial(analog, mixed)
 
 
 def test_wrong_component_in_protocol():

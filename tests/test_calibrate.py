@@ -80,3 +80,28 @@ def test_calibrate_command_bad_file(tmp_path):
     assert res.exit_code == 2
     assert "pairs.csv" in res.output and "non-numeric" in res.output
     assert "Traceback" not in res.output
+
+
+def test_pairs_of_mixed_kinds_and_a_calibration_of_the_wrong_kind(tmp_path):
+    """An angle with a force is refused; a calibration file with an unknown kind is a one-line
+    error; a rotational calibration given to a translational trial fails that trial (exit 1)."""
+    from limbstiff.files import write_trial
+    from limbstiff.simulate import simulate
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text("angle_deg,force_N\n1,2\n2,3\n3,5\n")
+    res = CliRunner().invoke(main, ["calibrate", str(pairs), "--out", str(tmp_path / "c.json")])
+    assert res.exit_code == 2 and "pairs are an angle with a torque or a length with a force" in res.output
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"a": 1, "b": 1, "rms_log_error": 0, "error_margin": 0, "n_pairs": 3,
+                               "x_range": [0, 1], "kind": "Rotational"}))
+    trial = tmp_path / "bench.csv"
+    write_trial(simulate("paper-exp-spring", seed=1, params={"duration": 3.0}), trial)
+    res = CliRunner().invoke(main, ["analyze", str(trial), "--reference", str(bad), "--no-pdf", "--jobs", "1",
+                                    "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "not a limbstiff calibration file" in res.output and "Traceback" not in res.output
+    rotational = tmp_path / "rot.json"
+    rotational.write_text(bad.read_text().replace('"Rotational"', '"rotational"'))
+    res = CliRunner().invoke(main, ["analyze", str(trial), "--reference", str(rotational), "--no-pdf", "--jobs", "1",
+                                    "--out", str(tmp_path / "o")])
+    assert res.exit_code == 1 and "the --reference calibration is rotational but the trial is translational" \
+        in res.output

@@ -86,8 +86,12 @@ def test_output_folder_the_workers_cannot_see(trial_file, tmp_path):
     assert not list((tmp_path / "out").iterdir())                       # probe removed, no trial run
 
 
+class KilledWorker(Exception):
+    """Named as dask's: the worker died under the task."""
+
+
 class _Losing(Executor):
-    """Runs tasks at once, but the second task's worker dies."""
+    """Runs tasks at once, but the second task's worker dies and the third cannot be run."""
 
     def __init__(self):
         self.n = 0
@@ -96,7 +100,9 @@ class _Losing(Executor):
         self.n += 1
         fut = Future()
         if self.n == 2:
-            fut.set_exception(RuntimeError("worker killed: out of memory"))
+            fut.set_exception(KilledWorker("out of memory"))
+        elif self.n == 3:
+            fut.set_exception(RuntimeError("cannot unpickle"))
         else:
             fut.set_result(fn(*args, **kwargs))
         return fut
@@ -107,8 +113,33 @@ def _ok(job):
 
 
 def test_a_lost_worker_fails_its_trial_only(tmp_path):
-    jobs = [BatchJob(source=tmp_path / f"t{i}.csv", name=f"t{i}", out=tmp_path, options={}) for i in range(3)]
+    jobs = [BatchJob(source=tmp_path / f"t{i}.csv", name=f"t{i}", out=tmp_path, options={}) for i in range(4)]
     seen = []
     outcomes = run_jobs(jobs, _ok, executor=_Losing(), progress=lambda o, done, total: seen.append(done))
-    assert [o.status for o in outcomes] == ["ok", "failed", "ok"] and seen == [1, 2, 3]
-    assert "t1.csv: the worker running it was lost (RuntimeError: worker killed" in outcomes[1].error
+    assert [o.status for o in outcomes] == ["ok", "failed", "failed", "ok"] and seen == [1, 2, 3, 4]
+    assert "t1.csv: the worker running it was lost (KilledWorker: out of memory)" in outcomes[1].error
+    assert "t2.csv: it could not run on the executor (RuntimeError: cannot unpickle)" in outcomes[2].error
+
+
+class _Silent(Executor):
+    """A cluster with no worker: tasks never finish."""
+
+    def submit(self, fn, *args, **kwargs):
+        return Future()
+
+
+class _Broken(Executor):
+    """Workers that cannot import limbstiff."""
+
+    def submit(self, fn, *args, **kwargs):
+        fut = Future()
+        fut.set_exception(ModuleNotFoundError("No module named 'limbstiff'"))
+        return fut
+
+
+def test_workers_that_do_not_answer_or_cannot_run(tmp_path):
+    with pytest.raises(cluster.ClusterError, match="no worker of the cluster answered within 0.1 s"):
+        cluster.check_shared_folder(_Silent(), tmp_path, timeout=0.1)
+    with pytest.raises(cluster.ClusterError, match="cannot run limbstiff \\(ModuleNotFoundError"):
+        cluster.check_shared_folder(_Broken(), tmp_path)
+    assert not list(tmp_path.iterdir())                                   # the probe file is gone

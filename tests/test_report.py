@@ -240,13 +240,13 @@ def test_relation_bins_exact():
     x = np.arange(300.0)[::-1]
     b = relation_bins(x, x, x - 1, x + 2, bins=10)
     starts = np.arange(0, 300, 30)
-    np.testing.assert_allclose(b["x"], starts + 14.5)
-    np.testing.assert_allclose(b["median"], starts + 14.5)
-    np.testing.assert_allclose(b["p90"] - b["median"], 11.6)
-    np.testing.assert_allclose(b["median"] - b["p10"], 11.6)
-    np.testing.assert_allclose(b["hi"] - b["lo"], 3.0)
-    assert b["count"].tolist() == [30] * 10
-    assert relation_bins(x[:89], x[:89], x[:89], x[:89], bins=10)["count"].size == 2   # ≥ 30 samples a bin
+    np.testing.assert_allclose(b.x, starts + 14.5)
+    np.testing.assert_allclose(b.median, starts + 14.5)
+    np.testing.assert_allclose(b.p90 - b.median, 11.6)
+    np.testing.assert_allclose(b.median - b.p10, 11.6)
+    np.testing.assert_allclose(b.hi - b.lo, 3.0)
+    assert b.count.tolist() == [30] * 10
+    assert relation_bins(x[:89], x[:89], x[:89], x[:89], bins=10).count.size == 2   # ≥ 30 samples a bin
 
 
 def test_prior_densities_integrate_to_one():

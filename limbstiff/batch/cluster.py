@@ -3,8 +3,8 @@
 Workers read the trial files and write each trial's outputs themselves, with the same atomic
 writes as local processes, so the input files and the output folder must be on a file system
 the workers share with the client, at the same paths (as on a lab server or an HPC cluster).
-Relative paths are resolved against the client's working directory: each task changes to it
-first. Returning results to the client to write would ship every report through the scheduler;
+Relative paths are opened from the client's working directory (carried by each job) and
+recorded as given, so the outputs are those of ``--jobs 1``. Returning results to the client to write would ship every report through the scheduler;
 a shared file system is what clusters of this kind have, and :func:`check_shared_folder` says
 plainly when it is missing. (``limbstiff diagnose`` returns each trial's analysis to the client,
 which writes the diagnosis.)
@@ -15,15 +15,15 @@ The extra is optional: ``pip install "limbstiff[dask]"``.
 from __future__ import annotations
 
 import contextlib
-import os
 import uuid
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Iterator
 
 from ..errors import LimbstiffError
 
-#: Seconds to wait for a scheduler before giving up.
+#: Seconds to wait for a scheduler, and for a worker to answer the shared-folder probe.
 CONNECT_TIMEOUT_S = 15.0
+PROBE_TIMEOUT_S = 60.0
 INSTALL_HINT = "pip install 'limbstiff[dask]'"
 
 
@@ -61,36 +61,43 @@ def dask_executor(address: str | None, *, timeout: float | None = None) -> Itera
         client.close()
 
 
-def in_folder(folder: str, worker: Callable, job):
-    """Run ``worker(job)`` in ``folder`` (the client's working directory), on a worker."""
-    if os.getcwd() != folder:
-        os.chdir(folder)
-    return worker(job)
-
-
-def _reads(path: str, token: str) -> bool:
-    """On a worker: whether the file at ``path`` holds ``token``."""
+def _reads(path: str, token: str) -> tuple[bool, str]:
+    """On a worker: whether the file at ``path`` holds ``token``, and the worker's limbstiff version."""
+    from .. import __version__
     try:
-        return Path(path).read_text(encoding="utf-8") == token
+        return Path(path).read_text(encoding="utf-8") == token, __version__
     except OSError:
-        return False
+        return False, __version__
 
 
-def check_shared_folder(executor, folder: Path) -> None:
-    """Check that a worker of ``executor`` sees ``folder`` as the client does.
+def check_shared_folder(executor, folder: Path, *, timeout: float | None = None) -> None:
+    """Check that a worker of ``executor`` answers, runs this limbstiff version, and sees
+    ``folder`` as the client does (one worker is asked: a cluster's workers share one set-up).
 
     Raises
     ------
     ClusterError
-        When the file the client wrote there is not what the worker reads.
+        When no worker answers within ``timeout`` s (default :data:`PROBE_TIMEOUT_S`), a worker
+        cannot run the probe, runs another version, or does not read what the client wrote.
     """
+    from .. import __version__
+    timeout = PROBE_TIMEOUT_S if timeout is None else timeout
     token = uuid.uuid4().hex
     probe = Path(folder).resolve() / f".limbstiff-probe-{token}"
     probe.write_text(token, encoding="utf-8")
     try:
-        seen = executor.submit(_reads, str(probe), token).result()
+        seen, version = executor.submit(_reads, str(probe), token).result(timeout=timeout)
+    except TimeoutError:
+        raise ClusterError(f"no worker of the cluster answered within {timeout:g} s: start workers "
+                           "(dask worker ADDRESS) or check the scheduler") from None
+    except Exception as exc:  # noqa: BLE001 - any failure on the worker is the cluster's set-up
+        raise ClusterError(f"the cluster's workers cannot run limbstiff ({type(exc).__name__}: "
+                           f"{' '.join(str(exc).split())}); install it where they run") from None
     finally:
         probe.unlink(missing_ok=True)
+    if version != __version__:
+        raise ClusterError(f"the cluster's workers run limbstiff {version}, this machine {__version__}: "
+                           "install the same version on both")
     if not seen:
         raise ClusterError(f"{folder}: the cluster's workers do not see this output folder; give --out a "
                            "folder on a file system the workers share with this machine")

@@ -71,45 +71,55 @@ def run_fingerprint(protocol: Protocol, *, seed: int, reference=None) -> str:
 def _clear_or_refuse(job: BatchJob, marker: str) -> None:
     """Refuse to replace complete outputs without ``--overwrite``; with it, remove ``marker``
     first, so that the folder reads as incomplete until the new outputs are all written."""
-    if not (job.out / marker).exists():
+    if not (job.at(job.out) / marker).exists():
         return
     opts = job.options
     if not opts["overwrite"]:
         why = "were made from another input or other settings, or lack a file this run writes"
         raise LimbstiffError(f"{job.source}: outputs in {job.out} {why} (use --overwrite to replace them)")
-    (job.out / marker).unlink()
+    (job.at(job.out) / marker).unlink()
+
+
+def read_job_trial(job: BatchJob, protocol: Protocol):
+    """The job's trial, opened from the client's folder on an executor, its source as given."""
+    from ..files import read_trial
+    trial = read_trial(job.at(job.source), protocol, name=job.name)
+    return trial if job.cwd is None else dataclasses.replace(trial, source=str(job.source))
 
 
 def _analyse_and_write(job: BatchJob) -> dict:
     """Read, analyse and write one trial (runs in a worker process)."""
     from ..analysis import analyze
-    from ..files import read_trial
     from ..files.atomic import sha256_file
     from ..files.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON, write_result
 
-    opts = job.options
+    opts, out = job.options, job.at(job.out)
     files = [STIFFNESS_CSV, SUMMARY_JSON] + ([REPORT_PDF] if opts["pdf"] else [])
     if opts.get("resume") or not opts["overwrite"]:
         # current outputs are kept unless --overwrite alone asks to redo them: a re-run of the same
         # command is a no-op, and --resume --overwrite redoes only what changed
-        done = up_to_date(job.out, source_sha256=sha256_file(job.source), run_sha256=opts["run_sha256"],
+        done = up_to_date(out, source_sha256=sha256_file(job.at(job.source)), run_sha256=opts["run_sha256"],
                           files=files)
         if done is not None:
             return dict(done, resumed=True)
     _clear_or_refuse(job, SUMMARY_JSON)
-    if not opts["pdf"] and (job.out / REPORT_PDF).exists():
-        (job.out / REPORT_PDF).unlink()          # a report of an earlier run would not match
+    if not opts["pdf"] and (out / REPORT_PDF).exists():
+        (out / REPORT_PDF).unlink()              # a report of an earlier run would not match
     protocol: Protocol = opts["protocol"]
-    trial = read_trial(job.source, protocol, name=job.name)
+    trial = read_job_trial(job, protocol)
     reference = None
     if opts.get("reference") is not None:
-        reference = opts["reference"].stiffness(trial.angle)
+        calibration = opts["reference"]
+        if calibration.kind is not None and calibration.kind != trial.kind:
+            raise LimbstiffError(f"{job.source}: the --reference calibration is {calibration.kind} but the trial "
+                                 f"is {trial.kind}; calibrate with pairs of the trial's kind")
+        reference = calibration.stiffness(trial.angle)
     result = analyze(trial, protocol, seed=opts["seed"], reference=reference)
     if opts["pdf"]:
         from ..report import write_report
-        write_report(result, job.out / REPORT_PDF)
-    return write_result(result, job.out, extra={"output": str(job.out), "files": files,
-                                                "run_sha256": opts["run_sha256"]})
+        write_report(result, out / REPORT_PDF)
+    return write_result(result, out, extra={"output": str(job.out), "files": files,
+                                            "run_sha256": opts["run_sha256"]})
 
 
 def _run(paths, work, options, *, out, jobs, executor, progress, marker: str) -> BatchReport:
@@ -158,28 +168,27 @@ def _run(paths, work, options, *, out, jobs, executor, progress, marker: str) ->
 def _identify_and_write(job: BatchJob) -> dict:
     """Read one trial, identify m and b, write posterior.json and draws.csv (worker process)."""
     from ..analysis import identification_summary, identify_trial
-    from ..files import read_trial
     from ..files.atomic import atomic_write_text
     from ..files.outputs import write_json
     from ..result import _jsonable
 
     from ..files.atomic import sha256_file
 
-    opts = job.options
+    opts, out = job.options, job.at(job.out)
     if not opts["overwrite"]:
-        done = up_to_date(job.out, source_sha256=sha256_file(job.source), run_sha256=opts["run_sha256"],
+        done = up_to_date(out, source_sha256=sha256_file(job.at(job.source)), run_sha256=opts["run_sha256"],
                           files=["draws.csv"], marker="posterior.json")
         if done is not None:
             return dict(done, resumed=True)
     _clear_or_refuse(job, "posterior.json")
-    trial = read_trial(job.source, opts["protocol"], name=job.name)
+    trial = read_job_trial(job, opts["protocol"])
     ident = identify_trial(trial, opts["protocol"], seed=opts["seed"])
-    job.out.mkdir(parents=True, exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     if ident.posterior is not None:
-        atomic_write_text(job.out / "draws.csv", ident.posterior.to_frame().to_csv(index=False, float_format="%.10g"))
+        atomic_write_text(out / "draws.csv", ident.posterior.to_frame().to_csv(index=False, float_format="%.10g"))
     summary = identification_summary(trial, ident, ci_level=opts["protocol"].ci_level, seed=opts["seed"])
     summary = _jsonable(dict(summary, output=str(job.out), run_sha256=opts["run_sha256"]))
-    write_json(job.out / "posterior.json", summary)
+    write_json(out / "posterior.json", summary)
     return summary
 
 

@@ -6,7 +6,7 @@ Each trial's error becomes a ``failed`` outcome with a one-line reason (a row of
 
 from __future__ import annotations
 
-import functools
+import dataclasses
 import os
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -30,12 +30,23 @@ class TrialOutcome:
 
 @dataclass(frozen=True)
 class BatchJob:
-    """Everything a worker needs to analyse one trial (picklable)."""
+    """Everything a worker needs to analyse one trial (picklable).
+
+    ``source`` and ``out`` are as the user gave them (and are recorded so); ``cwd``, set when the
+    job runs on an executor (another process, maybe another machine), is the client's working
+    directory, which relative paths are opened from (:meth:`at`).
+    """
 
     source: Path
     name: str
     out: Path
     options: dict
+    cwd: str | None = None
+
+    def at(self, path: Path) -> Path:
+        """``path`` as this job opens it: from the client's working directory when relative."""
+        path = Path(path)
+        return path if self.cwd is None or path.is_absolute() else Path(self.cwd) / path
 
 
 def run_one(job: BatchJob, analyse_and_write: Callable[[BatchJob], dict]) -> TrialOutcome:
@@ -62,7 +73,7 @@ def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome
              progress: Callable[[TrialOutcome, int, int], None] | None = None) -> list[TrialOutcome]:
     """Run ``worker`` on every job, in input order: serially, in ``n_jobs`` local processes, or on
     ``executor`` (any :class:`concurrent.futures.Executor`, e.g. a dask cluster's; it is not shut
-    down here, and its tasks run in the client's working directory).
+    down here; each job carries the client's working directory, :attr:`BatchJob.cwd`).
 
     A task whose worker dies (killed, out of memory) is a failed outcome; the others go on.
     """
@@ -76,8 +87,8 @@ def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome
     own = executor is None
     pool = ProcessPoolExecutor(max_workers=n_jobs) if own else executor
     if not own:
-        from .cluster import in_folder
-        worker = functools.partial(in_folder, os.getcwd(), worker)
+        cwd = os.getcwd()
+        jobs = [dataclasses.replace(job, cwd=cwd) for job in jobs]
     futures = {}
     try:
         futures = {pool.submit(worker, job): i for i, job in enumerate(jobs)}
@@ -96,10 +107,16 @@ def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome
     return [o for o in outcomes if o is not None]
 
 
+#: Exception names of executors whose worker died under a task (the task itself may be fine).
+LOST_WORKER = ("BrokenProcessPool", "BrokenExecutor", "KilledWorker", "CommClosedError")
+
+
 def _outcome(future, job: BatchJob) -> TrialOutcome:
-    """The outcome a finished task returned, or a failed one when its worker was lost."""
+    """The outcome a finished task returned, or a failed one when it could not run."""
     try:
         return future.result()
-    except Exception as exc:  # noqa: BLE001 - a lost worker fails its trial, not the batch
+    except Exception as exc:  # noqa: BLE001 - a task that cannot run fails its trial, not the batch
+        what = ("the worker running it was lost" if type(exc).__name__ in LOST_WORKER
+                else "it could not run on the executor")
         return TrialOutcome(job.name, str(job.source), "failed",
-                            _one_line(f"{job.source}: the worker running it was lost ({type(exc).__name__}: {exc})"))
+                            _one_line(f"{job.source}: {what} ({type(exc).__name__}: {exc})"))

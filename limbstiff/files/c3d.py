@@ -4,8 +4,10 @@ A protocol's ``[columns]`` names the channels: ``header`` is the channel's label
 channel (``Torque``, a dynamometer's ``Angle``) or a point channel with its ``component``
 (``x``, ``y`` or ``z``; model outputs such as ``LAnkleAngles`` or ``LAnkleMoment``). Units come
 from the protocol's ``unit`` or, when it has none, from the file (``ANALOG:UNITS`` for analog
-channels; ``POINT:ANGLE_UNITS``, ``POINT:MOMENT_UNITS``, ``POINT:FORCE_UNITS`` for the labels
-the file lists as angles, moments or forces, else ``POINT:UNITS``). Time is built from the
+channels; ``POINT:ANGLE_UNITS`` or ``POINT:FORCE_UNITS`` for the labels the file lists as angles
+or forces, else ``POINT:UNITS``), and must be one of the quantity's (a torque in ``mm`` is an
+error). Model moments and powers need the protocol's ``unit``: they are often normalised by body
+mass whatever ``POINT:MOMENT_UNITS`` says. Time is built from the
 channels' rate (analog or point) and the file's first frame. All mapped channels must be analog
 or all points: mixing rates would mean resampling one of them, which the file's owner should
 decide. ``SUBJECTS:NAMES`` becomes the metadata's ``subject``.
@@ -22,7 +24,8 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .units import FIELDS, UNITS, to_si
+from .columns import ColumnSpec, check_unit, joint_kind
+from .units import FIELD_DIMENSIONS, FIELDS, UNITS, to_si
 from .validate import checked_trial
 
 INSTALL_HINT = "pip install 'limbstiff[c3d]'"
@@ -87,9 +90,13 @@ def read_c3d(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
                                     f"(t = {values['time'][bad[0]]:g} s; an occluded marker or a gap in the model "
                                     "output): fill or cut the gap before analysing")
         values[field] = to_si(data, unit) * columns[field].scale
-    dimension = UNITS[channels["angle"][2]].dimension
+    specs = {}
+    for k, (field, (_, _, unit)) in enumerate(channels.items()):
+        check_unit(where, "channel", columns[field].header, unit, field.replace("_", " "), FIELD_DIMENSIONS[field])
+        specs[field] = ColumnSpec(field, columns[field].header, k, unit, columns[field].scale)
+    joint = joint_kind(where, specs, noun="channel")
     metadata = _metadata(c3d, columns, kind=kind, rate=rate, first=first)
-    return checked_trial(path, raw, values, kind="rotational" if dimension == "angle" else "translational",
+    return checked_trial(path, raw, values, kind=joint,
                          protocol=protocol, name=name, metadata=metadata, warnings=[],
                          locate=lambda k: f"{kind} frame {k + 1}")
 
@@ -123,10 +130,20 @@ def _channel(where: str, c3d, column) -> tuple[str, np.ndarray, str]:
                                     f"\"x\", \"y\" or \"z\" in its [columns] entry")
         k = points.index(label)
         data = np.asarray(c3d["data"]["points"][COMPONENTS[column.component], k, :], dtype=float)
+        if not column.unit and _listed(c3d, label, ("MOMENTS", "POWERS")):
+            raise TrialError(where, f"'{label}' is a model output whose unit the file cannot settle (moments are "
+                                    "often normalised by body mass, N·mm/kg, whatever POINT:MOMENT_UNITS says): give "
+                                    "unit = \"Nmm\" (and scale = the body mass in kg if normalised) in its [columns] "
+                                    "entry")
         return "point", data, _unit(where, label, column.unit, _point_unit(c3d, label))
     known = ", ".join(analog + points) or "none"
     raise TrialError(where, f"no channel labelled '{label}' (analog and point labels: {_shorten(known)}); "
                             "check the header of this quantity in the protocol's [columns]")
+
+
+def _listed(c3d, label: str, listings: tuple[str, ...]) -> bool:
+    """Whether the file lists ``label`` under one of the POINT parameters ``listings``."""
+    return any(label in [str(x).strip() for x in _parameter(c3d, "POINT", name) or []] for name in listings)
 
 
 def _point_unit(c3d, label: str) -> str:

@@ -163,7 +163,7 @@ def _mapped_column(file: _Listing, field: str, spec, columns: dict[str, ColumnSp
     if unit is None:
         raise TrialError(where, f"{noun} '{header}' ({label}) has no unit in its name; "
                                 f"give one in the protocol ([columns.{field}] unit)")
-    _check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
+    check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
     other = [_LABELS[c.field] for c in columns.values() if c.header == header]
     if other:
         raise TrialError(where, f"{noun} '{header}' is given by the protocol for both "
@@ -203,9 +203,9 @@ def _standard_column(file: _Listing, field: str, spec, standard: dict[int, tuple
     if spec is not None and spec.unit:
         _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", file.row[index]))
         unit = spec.unit
-        _check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
+        check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
     else:
-        _check_unit(where, noun, header, unit, quantity.replace("_", " "),
+        check_unit(where, noun, header, unit, quantity.replace("_", " "),
                     STANDARD_QUANTITIES[quantity].dimensions, hint=True)
     return ColumnSpec(field, header, index, unit, spec.scale if spec is not None else 1.0)
 
@@ -280,7 +280,7 @@ def _agree(where, noun, header, first, second) -> None:
                                 f"{who2} says '{unit2}'")
 
 
-def _check_unit(where, noun, header, unit, label, dimensions, hint=False) -> None:
+def check_unit(where, noun, header, unit, label, dimensions, hint=False) -> None:
     """Error unless ``unit`` is a known unit of one of ``dimensions``."""
     accepted = ", ".join(accepted_units(dimensions))
     if unit not in UNITS:

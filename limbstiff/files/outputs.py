@@ -28,8 +28,19 @@ def write_json(path: str | Path, data: dict) -> None:
     atomic_write_text(path, json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n")
 
 
-def round_significant(x: np.ndarray, digits: int) -> np.ndarray:
-    """``x`` rounded to ``digits`` significant digits (NaN and ±inf kept, 0 stays 0)."""
+def round_significant(x: np.ndarray, *, digits: int) -> np.ndarray:
+    """Values rounded to a number of significant digits.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+    digits : int
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``x`` to ``digits`` significant digits; NaN and ±inf kept, 0 stays 0.
+    """
     x = np.asarray(x, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         exponent = np.floor(np.log10(np.abs(x)))
@@ -57,7 +68,7 @@ def write_result(result, directory: str | Path, *, extra: dict | None = None) ->
     directory.mkdir(parents=True, exist_ok=True)
     frame = result.to_frame()
     for column in ("stiffness", "stiffness_lo", "stiffness_hi"):
-        frame[column] = round_significant(frame[column].to_numpy(), STIFFNESS_DIGITS)
+        frame[column] = round_significant(frame[column].to_numpy(), digits=STIFFNESS_DIGITS)
     # time keeps ten digits: a microsecond an hour into a trial
     atomic_write_text(directory / STIFFNESS_CSV, frame.to_csv(index=False, float_format="%.10g"))
     summary = result.summary()

@@ -80,4 +80,9 @@ def read_pairs(path: str | Path, *, displacement: str | None = None,
             raise TrialError(path, f"column '{col}' has a missing or non-numeric value at data row {bad[0] + 1}")
         out.append(to_si(values, unit))
         dimensions.append(UNITS[unit].dimension)
-    return out[0], out[1], "rotational" if dimensions[0] == "angle" else "translational"
+    kinds = {"angle": "rotational", "torque": "rotational", "length": "translational", "force": "translational"}
+    if dimensions[0] not in ("angle", "length") or dimensions[1] not in ("torque", "force") \
+            or kinds[dimensions[0]] != kinds[dimensions[1]]:
+        raise TrialError(path, f"displacement in {dimensions[0]} units and force in {dimensions[1]} units: pairs are "
+                               "an angle with a torque or a length with a force")
+    return out[0], out[1], kinds[dimensions[0]]

@@ -349,8 +349,8 @@ class DiagnoseReport:
 def _read_and_analyze(job) -> dict:
     """Read and analyse one trial file (a :class:`~limbstiff.batch.runner.BatchJob` whose options
     hold the protocol and the seed): the trial and its analysis."""
-    from ..files import read_trial
-    trial = read_trial(job.source, job.options["protocol"], name=job.name)
+    from ..batch.jobs import read_job_trial
+    trial = read_job_trial(job, job.options["protocol"])
     return {"trial": trial, "result": analyze(trial, job.options["protocol"], seed=job.options["seed"])}
 
 

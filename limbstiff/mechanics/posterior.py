@@ -124,8 +124,19 @@ def log_prior(values: np.ndarray, prior: Prior) -> np.ndarray:
 
 
 def prior_density(values: np.ndarray, prior: Prior) -> np.ndarray | None:
-    """Normalised density of ``prior`` at ``values`` (1/SI unit); None for the flat default,
-    which has none.
+    """Normalised density of a prior on a positive parameter.
+
+    Parameters
+    ----------
+    values : ndarray, shape (n,)
+        Inertia (kg·m², kg) or damping (N·m·s/rad, N·s/m).
+    prior : Prior
+
+    Returns
+    -------
+    ndarray, shape (n,), or None
+        The density, 1/(unit of ``values``), 0 outside the support; None for the flat default,
+        which has no density.
     """
     x = np.asarray(values, dtype=float)
     out = np.zeros(x.shape)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import textwrap
+import threading
 from pathlib import Path
 from typing import Iterable, Sequence
 
@@ -37,11 +38,16 @@ _RC = {
 }
 
 
+#: rc_context changes matplotlib's global settings: reports drawn in threads of one process (a
+#: threaded dask worker) take turns, so that none draws with another's settings half undone.
+_STYLE_LOCK = threading.RLock()
+
+
 @contextlib.contextmanager
 def style():
     """Font sizes and grid of the reports, for the figures built inside the block."""
     import matplotlib
-    with matplotlib.rc_context(_RC):
+    with _STYLE_LOCK, matplotlib.rc_context(_RC):
         yield
 
 
@@ -154,7 +160,8 @@ def footer(fig, lines: Iterable[str], page: int | None = None, pages: int | None
 
 def shade_false(ax, time: np.ndarray, mask: np.ndarray, **kw) -> None:
     """Shade the stretches of ``time`` where ``mask`` is False (grey by default)."""
-    false = np.concatenate([[0], (~np.asarray(mask, bool)).view(np.int8), [0]])   # one byte a sample
+    pad = np.zeros(1, np.int8)
+    false = np.concatenate([pad, (~np.asarray(mask, bool)).view(np.int8), pad])   # one byte a sample
     edges = np.diff(false)
     style_ = {"color": "0.88", "lw": 0, "zorder": 0, **kw}
     for lo, hi in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):

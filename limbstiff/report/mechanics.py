@@ -1,6 +1,7 @@
 """The inertia–damping page of the per-trial report: the posterior of (m, b) as a pairwise
-(corner) plot, with the least-squares and maximum-likelihood values, and the posterior of the
-Kalman model's noise levels.
+(corner) plot with the priors' densities drawn on its histograms (or "flat on > 0" said), the
+least-squares and maximum-likelihood values (an arrow at the edge when off the plot), and the
+posterior of the Kalman model's noise levels.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..interval import Interval
+from ..estimate.kalman import NoiseLevels
 from ..mechanics.posterior import prior_density
 from ..protocol import Prior
 from .common import FONT, fmt, grid, new_page, text_panel
@@ -239,9 +241,10 @@ def _noise_levels(ax, draws, u) -> None:
     """The posterior of the log noise levels (ln R, ln Q_s, ln Q_σ, ln Q_c) on one axes: each a
     row, its draws' histogram about their median (the levels differ by orders of magnitude, their
     spreads do not)."""
-    torque, stiff = u["torque"], u["stiffness"]
-    names = [f"measurement noise R [({torque})²]", f"elastic-torque walk Q_s [({torque})²/s]",
-             f"stiffness walk, free Q_σ [({stiff})²/s]", f"stiffness walk, coupled Q_c [({stiff})²/s]"]
+    unit = NoiseLevels.units(u["torque"], u["stiffness"])
+    names = [f"measurement noise R [{unit['measurement']}]", f"elastic-torque walk Q_s [{unit['torque_walk']}]",
+             f"stiffness walk, free Q_σ [{unit['stiffness_walk']}]",
+             f"stiffness walk, coupled Q_c [{unit['coupled_walk']}]"]
     labels = []
     for k in range(min(4, draws.shape[1] - 2)):
         x = draws[:, 2 + k]

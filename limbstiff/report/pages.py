@@ -14,7 +14,8 @@ import textwrap
 import numpy as np
 
 from ..digest import headline_rows, recording_rows, verdict_line
-from .common import A4, FONT, LIMIT_VALUES, envelope, envelope_band, fmt, grid, new_page, robust_limits, shade_false, text_panel
+from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, envelope, envelope_band, fmt, grid, new_page,
+                     robust_limits, shade_false, text_panel)
 from .plots import names, plot_relation, plot_stiffness, recorded_torque
 
 #: Seconds at the start of a trial left out of the reference error (as in reference_error()).
@@ -32,8 +33,11 @@ def summary_page(result):
     ax = fig.add_axes((0.1, y - height - 0.01, 0.84, height))
     plot_stiffness(result, ax=ax)
     y = _key_values(fig, headline_rows(result), y - height - 0.055, fontsize=FONT["body"], wrap=78)
-    y = _bullets(fig, "Warnings", list(result.warnings) or ["none"], y - 0.01, floor=0.2)
-    _key_values(fig, recording_rows(result), y - 0.01, fontsize=FONT["small"], wrap=95, title="Recording")
+    recording = recording_rows(result)
+    room = 0.026 + len(recording) * 1.9 * FONT["small"] / 72 / A4[1]       # the recording table's height
+    y = _bullets(fig, "Warnings", list(result.warnings) or ["none"], y - 0.01, floor=FOOTER_HEIGHT + room + 0.02)
+    _key_values(fig, recording, y - 0.01, fontsize=FONT["small"], wrap=95, title="Recording",
+                floor=FOOTER_HEIGHT + 0.01)
     return fig
 
 
@@ -51,15 +55,19 @@ def _verdict_box(fig, result, y: float) -> float:
 
 
 def _key_values(fig, rows: list[tuple[str, str]], y: float, *, fontsize: float, wrap: int,
-                title: str | None = None) -> float:
-    """Bold labels with their wrapped texts from height ``y`` (page fraction) down; the height
-    reached."""
+                title: str | None = None, floor: float = 0.0) -> float:
+    """Bold labels with their wrapped texts from height ``y`` (page fraction) down, none below
+    ``floor`` (the rest counted in a last line); the height reached."""
     line = 1.45 * fontsize / 72 / A4[1]           # one line, in page fractions
     if title:
         fig.text(0.06, y, title, fontsize=FONT["heading"], weight="bold", va="top")
         y -= 0.026
-    for label, value in rows:
+    for k, (label, value) in enumerate(rows):
         wrapped = textwrap.wrap(str(value), wrap) or [""]
+        if y - line * len(wrapped) < floor:
+            fig.text(0.06, y, f"… {len(rows) - k} more lines in summary.json", fontsize=FONT["small"],
+                     style="italic", va="top")
+            return y - line
         fig.text(0.06, y, label, fontsize=fontsize, weight="bold", va="top")
         fig.text(0.3, y, "\n".join(wrapped), fontsize=fontsize, va="top", linespacing=1.3)
         y -= line * len(wrapped) + 0.4 * line
@@ -75,7 +83,7 @@ def _bullets(fig, title: str | None, items: list[str], y: float, *, limit: int =
         y -= 0.026
     for k, item in enumerate(items):
         wrapped = textwrap.wrap(item, 100)
-        if k >= limit or y - line * len(wrapped) < floor:
+        if (k >= limit or y - line * len(wrapped) < floor) and item != "none":
             fig.text(0.08, y, f"… {len(items) - k} more in summary.json", fontsize=FONT["small"], style="italic",
                      va="top")
             return y - line
@@ -150,7 +158,7 @@ def reference_page(result):
     ax1.plot(*envelope(t, rel), lw=0.7, color="C3", label="(estimate − reference) / reference")
     ax1.axhline(0, color="k", lw=0.6)
     ax1.axvspan(t[0], t[0] + REFERENCE_SKIP_S, color="C1", alpha=0.12, lw=0, label="left out (first 2 s)")
-    use = result.observable & (t >= t[0] + REFERENCE_SKIP_S)
+    use = result.observable & (t - t[0] >= REFERENCE_SKIP_S)           # as reference_error() takes them
     shown = np.flatnonzero(use)
     shown = shown[::max(1, shown.size // LIMIT_VALUES)]
     limits = robust_limits(np.concatenate([rel[shown], width[shown], -width[shown]]) if shown.size else rel, pad=0.3)

@@ -7,6 +7,8 @@ matplotlib is imported inside the functions only.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..estimate.observer import informed_samples
@@ -87,33 +89,57 @@ def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = Tr
     return ax
 
 
+class RelationBins(NamedTuple):
+    """Stiffness in bins of angle or torque, each array of shape (k,) (one value per bin).
+
+    Parameters
+    ----------
+    x : ndarray
+        Median angle (rad, m) or torque (N·m, N) of the bin.
+    median, p10, p90 : ndarray, N·m/rad (N/m)
+        Median, 10th and 90th percentile of the estimate in the bin (its change over the trial).
+    lo, hi : ndarray, N·m/rad (N/m)
+        Medians of the band's bounds in the bin (the estimate's uncertainty there).
+    count : ndarray of int
+        Samples in the bin.
+    """
+
+    x: np.ndarray
+    median: np.ndarray
+    p10: np.ndarray
+    p90: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    count: np.ndarray
+
+
 def relation_bins(x: np.ndarray, stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                  *, bins: int = RELATION_BINS) -> dict[str, np.ndarray]:
+                  *, bins: int = RELATION_BINS) -> RelationBins:
     """Stiffness in bins of ``x`` with equal counts: median, spread over the trial and band.
 
     Parameters
     ----------
     x : ndarray, shape (n,)
         Angle or torque of the informed samples.
-    stiffness, lo, hi : ndarray, shape (n,)
+    stiffness, lo, hi : ndarray, shape (n,), N·m/rad (N/m)
         Estimate and band bounds at those samples.
     bins : int
         Bins wanted; fewer when a bin would hold under :data:`MIN_BIN_SAMPLES`.
 
     Returns
     -------
-    dict of ndarray, shape (k,)
-        ``x`` (median of x in the bin), ``median``, ``p10``, ``p90`` (of the estimate in the bin),
-        ``lo``, ``hi`` (medians of the band's bounds in the bin), ``count``.
+    RelationBins
     """
     k = int(max(1, min(bins, x.size // MIN_BIN_SAMPLES)))
     order = np.argsort(x, kind="stable")
     groups = [g for g in np.array_split(order, k) if g.size]
-    out = {key: np.array([f(v[g]) for g in groups]) for key, f, v in (
-        ("x", np.median, x), ("median", np.median, stiffness), ("p10", lambda s: np.percentile(s, 10), stiffness),
-        ("p90", lambda s: np.percentile(s, 90), stiffness), ("lo", np.median, lo), ("hi", np.median, hi))}
-    out["count"] = np.array([g.size for g in groups])
-    return out
+
+    def per_bin(values, stat=np.median):
+        return np.array([stat(values[g]) for g in groups])
+
+    return RelationBins(x=per_bin(x), median=per_bin(stiffness), p10=per_bin(stiffness, lambda v: np.percentile(v, 10)),
+                        p90=per_bin(stiffness, lambda v: np.percentile(v, 90)), lo=per_bin(lo), hi=per_bin(hi),
+                        count=np.array([g.size for g in groups]))
 
 
 def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATION_BINS):
@@ -136,7 +162,7 @@ def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATI
     matplotlib.axes.Axes
     """
     if against not in ("angle", "torque"):
-        raise ValueError(f"against must be 'angle' or 'torque', not {against!r}")
+        raise ValueError(f"against must be 'angle' or 'torque' (or 'time' for StiffnessResult.plot), not {against!r}")
     ax = _axes(ax)
     trial, u, word = result.trial, result.trial.units, names(result.trial)
     key, x = ("angle", trial.angle) if against == "angle" else recorded_torque(result)
@@ -151,11 +177,10 @@ def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATI
                label="informed samples")
     obs = obs[::max(1, obs.size // BIN_SAMPLES)]
     b = relation_bins(x[obs], result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs], bins=bins)
-    ax.fill_between(b["x"], b["p10"], b["p90"], color="C0", alpha=0.2, lw=0,
-                    label="10th–90th percentile in the bin")
-    ax.errorbar(b["x"], b["median"], yerr=[b["median"] - b["lo"], b["hi"] - b["median"]], fmt="o-", color="k",
+    ax.fill_between(b.x, b.p10, b.p90, color="C0", alpha=0.2, lw=0, label="10th–90th percentile in the bin")
+    ax.errorbar(b.x, b.median, yerr=[b.median - b.lo, b.hi - b.median], fmt="o-", color="k",
                 ms=3.5, lw=0.9, capsize=2.5, label=f"median in the bin, median {100 * result.ci_level:.0f} % band")
-    limits = robust_limits(np.concatenate([result.stiffness[thin], b["lo"], b["hi"]]), pad=0.15, pct=(0.5, 99.5))
+    limits = robust_limits(np.concatenate([result.stiffness[thin], b.lo, b.hi]), pad=0.15, pct=(0.5, 99.5))
     if limits is not None:
         ax.set_ylim(*limits)
     ax.legend(loc="upper right", framealpha=0.85)       # "best" scans every point: slow on a dense scatter

@@ -2,10 +2,11 @@
 
 :func:`report_figures` builds the pages as matplotlib figures (no file, no pyplot), in order:
 
-1. summary for a clinician (stiffness, inertia, damping with intervals, warnings, metadata);
+1. the answer: the verdict with its reasons, the stiffness over time with its band, the trial's
+   figures with what each interval is, warnings, a short table of what was recorded;
 2. angle, torque and stiffness over time, uninformed stretches shaded;
-3. stiffness against angle and against torque;
-4. posterior of inertia and damping (pairwise plot), or why there is none;
+3. stiffness against angle and against torque (medians in bins with the band);
+4. posterior of inertia and damping (pairwise plot, priors drawn), or why there is none;
 5. data quality (sampling, bandwidth and spectra, quantisation, observer, MCMC);
 6. error against the reference stiffness (only when there is one).
 
