@@ -331,7 +331,7 @@ def test_unknown_extension_and_case(tmp_path):
     t, a, tau = signals()
     path = tmp_path / "trial.xlsx"
     path.write_bytes(b"PK\x03\x04")
-    expect_error(path, "unknown file type '.xlsx' (accepted: .csv, .tsv, .txt, .mat)")
+    expect_error(path, "unknown file type '.xlsx' (accepted: .csv, .tsv, .txt, .mat, .c3d)")
     expect_error(tmp_path / "noext", "unknown file type '(no extension)'")
     upper = tmp_path / "UP.MAT"
     sio.savemat(upper, {"time_s": t, "angle_rad": a, "torque_Nm": tau})
