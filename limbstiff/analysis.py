@@ -190,6 +190,30 @@ def _trial_level(filtered: Filtered, estimate: estimators.Estimate, ident: Ident
                        sources=tuple(sources))
 
 
+def uninformed_band(lo: np.ndarray, hi: np.ndarray, observable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The band where no motion informs the estimate: at least the range the trial's informed band
+    spans, so that it widens honestly where the data say nothing.
+
+    The model's own band there extrapolates the stiffness walk at the rate fitted while the limb
+    moved; a stiffness that changes while nothing moves (a co-contraction, an actuator's new
+    set-point in a motion pause) is not bound by it. Informed samples keep the model's band.
+
+    Parameters
+    ----------
+    lo, hi : ndarray, shape (n,), N·m/rad (N/m)
+    observable : ndarray of bool, shape (n,)
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (n,), N·m/rad (N/m)
+        New arrays; unchanged when no sample (or every sample) is informed.
+    """
+    if observable.all() or not observable.any():
+        return lo, hi
+    lowest, highest = float(np.min(lo[observable])), float(np.max(hi[observable]))
+    return (np.where(observable, lo, np.minimum(lo, lowest)), np.where(observable, hi, np.maximum(hi, highest)))
+
+
 def _limb_stiffness(coupling: CouplingFit | None, stiffness, lo, hi):
     """The limb's stiffness and band when a coupling was found (the one-body estimate is that of
     the springs in series); unchanged otherwise, or when the estimate reaches k_c somewhere."""
@@ -291,6 +315,7 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     half = z * np.sqrt(np.maximum(estimate.variance_with(None if ident is None else ident.covariance), 0.0))
     stiffness, lo, hi = _limb_stiffness(coupling, estimate.stiffness, estimate.stiffness - half,
                                         estimate.stiffness + half)
+    lo, hi = uninformed_band(lo, hi, observable)
     corrected = stiffness is not estimate.stiffness
     figures = _trial_level(filtered, estimate, ident, observable, level=protocol.ci_level, seed=seed,
                            limb=coupling.limb_stiffness if corrected else (lambda x: x))

@@ -56,6 +56,31 @@ def test_band_widens_and_observable_drops_without_motion():
     assert np.median(width[pause]) > 2 * np.median(width[moving])
 
 
+def test_uninformed_band_spans_the_trials_range():
+    """Where no motion informs the estimate the band holds at least the informed band's range
+    (exact on a made-up band); informed samples keep the model's band; nothing informed, or
+    everything, leaves the band as it is."""
+    from limbstiff.analysis import uninformed_band
+    lo, hi = np.array([1.0, 2.0, 9.0, 4.0]), np.array([3.0, 5.0, 9.5, 6.0])
+    observable = np.array([True, True, False, True])
+    new_lo, new_hi = uninformed_band(lo, hi, observable)
+    np.testing.assert_array_equal(new_lo, [1.0, 2.0, 1.0, 4.0])
+    np.testing.assert_array_equal(new_hi, [3.0, 5.0, 9.5, 6.0])        # 9.5 is already wider than 6
+    for mask in (np.zeros(4, bool), np.ones(4, bool)):
+        assert all(a is b for a, b in zip(uninformed_band(lo, hi, mask), (lo, hi)))
+
+
+def test_a_motion_pause_holds_the_truth():
+    """Elbow with a 4 s pause (seed 2, whose model band in the pause held the truth 56 % of the
+    time): the true stiffness ramps 6 → 30 N·m/rad and stays within the trial's range, so the
+    widened band holds it in every uninformed sample after the first 2 s."""
+    trial = simulate("elbow", seed=2, params={"duration": 20.0, "pause_start": 12.0, "pause_duration": 4.0})
+    result = analyze(trial, seed=0)
+    use = (trial.time - trial.time[0] >= 2.0) & ~result.observable
+    inside = (result.stiffness_lo <= trial.stiffness_true) & (trial.stiffness_true <= result.stiffness_hi)
+    assert use.sum() > 1000 and inside[use].mean() == 1.0
+
+
 def test_smoothed_observer_beats_the_causal_one():
     trial = simulate("elbow", seed=7, params={"duration": 12.0})
     causal = _errors(analyze(trial, Protocol(estimator="observer")))
