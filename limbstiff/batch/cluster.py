@@ -4,10 +4,10 @@ Workers read the trial files and write each trial's outputs themselves, with the
 writes as local processes, so the input files and the output folder must be on a file system
 the workers share with the client, at the same paths (as on a lab server or an HPC cluster).
 Relative paths are opened from the client's working directory (carried by each job) and
-recorded as given, so the outputs are those of ``--jobs 1``. Returning results to the client to write would ship every report through the scheduler;
-a shared file system is what clusters of this kind have, and :func:`check_shared_folder` says
-plainly when it is missing. (``limbstiff diagnose`` returns each trial's analysis to the client,
-which writes the diagnosis.)
+recorded as given, so the outputs are those of ``--jobs 1``. Returning results to the client to
+write would ship every report through the scheduler; a shared file system is what clusters of
+this kind have, and :func:`check_shared_folder` says plainly when it is missing.
+(``limbstiff diagnose`` returns each trial's analysis to the client, which writes the diagnosis.)
 
 The extra is optional: ``pip install "limbstiff[dask]"``.
 """
