@@ -143,3 +143,8 @@ def test_workers_that_do_not_answer_or_cannot_run(tmp_path):
     with pytest.raises(cluster.ClusterError, match="cannot run limbstiff \\(ModuleNotFoundError"):
         cluster.check_shared_folder(_Broken(), tmp_path)
     assert not list(tmp_path.iterdir())                                   # the probe file is gone
+
+
+def test_jobs_and_scheduler_exclude_each_other(tmp_path):
+    res = run("analyze", tmp_path, "--jobs", 2, "--scheduler", "tcp://127.0.0.1:8786")
+    assert res.exit_code == 2 and "--jobs and --scheduler exclude each other" in res.output

@@ -35,6 +35,7 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 def command(paths, protocol_path, out, jobs, scheduler, seed, no_pdf, inertia, damping, observer_gain, estimator,
             reference_path, sort_by, overwrite, resume):
     """Estimate the stiffness of every trial in PATHS (files, folders, globs)."""
+    jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
     from ..batch.jobs import analyze_files, check_reference
     from ..batch.cluster import dask_executor
     from .progress import Progress
@@ -44,6 +45,6 @@ def command(paths, protocol_path, out, jobs, scheduler, seed, no_pdf, inertia, d
     reference = check_reference(reference_path) if reference_path else None
     keys = [k.strip() for k in sort_by.split(",") if k.strip()]
     with dask_executor(scheduler) as executor:
-        finish(analyze_files(paths, protocol=protocol, out=out, jobs=n_jobs(jobs), seed=seed, pdf=not no_pdf,
+        finish(analyze_files(paths, protocol=protocol, out=out, jobs=jobs, seed=seed, pdf=not no_pdf,
                              overwrite=overwrite, resume=resume, reference=reference, sort_by=keys,
                              executor=executor, progress=Progress()))

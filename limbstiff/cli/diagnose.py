@@ -27,13 +27,14 @@ def command(paths, protocol_path, out, seed, inertia, damping, jobs, scheduler):
     """Diagnose the gap between the nominal model and the trials in PATHS (together: the effects'
     amplitudes are shared, each trial is held out block by block); write diagnosis.json and
     diagnosis.pdf."""
+    jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
     from ..gap.run import diagnose_files
     from ..batch.cluster import dask_executor
     from .progress import Progress
 
     with dask_executor(scheduler) as executor:
         report = diagnose_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, seed=seed,
-                                inertia=inertia, damping=damping, jobs=n_jobs(jobs), executor=executor,
+                                inertia=inertia, damping=damping, jobs=jobs, executor=executor,
                                 progress=Progress())
     for line in report.failed:
         click.echo(f"limbstiff: error: {line}", err=True)

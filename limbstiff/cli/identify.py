@@ -19,10 +19,11 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 @reports_errors
 def command(paths, protocol_path, out, jobs, scheduler, seed, overwrite):
     """Identify inertia and damping of every trial in PATHS; write posterior.json and draws.csv."""
+    jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
     from ..batch.cluster import dask_executor
     from .progress import Progress
     from ..batch.jobs import identify_files
 
     with dask_executor(scheduler) as executor:
-        finish(identify_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, jobs=n_jobs(jobs),
+        finish(identify_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, jobs=jobs,
                               seed=seed, overwrite=overwrite, executor=executor, progress=Progress()))

@@ -39,9 +39,12 @@ def finish(report):
     sys.exit(report.exit_status if n else EXIT_USAGE)
 
 
-def n_jobs(jobs):
-    """``--jobs`` or the number of cores."""
+def n_jobs(jobs, scheduler=None):
+    """``--jobs`` or the number of cores; an error when ``--scheduler`` is given too (the
+    cluster's workers set the parallelism then)."""
     import os
+    if jobs and scheduler:
+        fail("--jobs and --scheduler exclude each other: on a cluster its workers run the trials in parallel")
     return jobs or os.cpu_count() or 1
 
 
