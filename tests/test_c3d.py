@@ -52,7 +52,7 @@ def write_c3d(path, *, analog=None, analog_rate=1000.0, analog_units=("rad", "Nm
 
 @pytest.fixture(scope="module")
 def elbow():
-    return simulate("elbow", seed=2, params={"duration": 6.0})
+    return simulate("elbow", seed=2, params={"duration": 4.0})
 
 
 def test_same_trial_as_csv_and_c3d_gives_the_same_result(elbow, tmp_path):

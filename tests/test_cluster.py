@@ -22,7 +22,7 @@ def _folder(trial_file, tmp_path, n):
     folder = tmp_path / "trials"
     folder.mkdir()
     for i in range(n):
-        trial_file(f"t{i}", folder=folder, seed=i, duration=3.0)
+        trial_file(f"t{i}", folder=folder, seed=i, duration=2.0)
     (folder / "broken.csv").write_text("time_s,angle_rad\n0,1\n")
     return folder
 
