@@ -30,6 +30,10 @@ from .trial_level import TrialLevel
 
 __all__ = ["StiffnessResult", "DerivedSettings", "Interval", "software"]
 
+#: Seconds at the start of a trial left out of the error against a reference (the estimators'
+#: start-up transient).
+REFERENCE_SKIP_S = 2.0
+
 
 @dataclass(frozen=True)
 class DerivedSettings:
@@ -162,8 +166,6 @@ class StiffnessResult:
         matplotlib.axes.Axes
         """
         from .report.plots import plot_relation, plot_stiffness
-        if against not in ("time", "angle", "torque"):
-            raise ValueError(f"against must be 'time', 'angle' or 'torque', not {against!r}")
         if against == "time":
             return plot_stiffness(self, ax=ax, reference=reference)
         return plot_relation(self, against, ax=ax)
@@ -193,8 +195,13 @@ class StiffnessResult:
             "observable": self.observable.astype(int),
         })
 
-    def reference_error(self, *, skip: float = 2.0) -> dict | None:
-        """Relative error against the reference stiffness, over observable samples after ``skip`` s.
+    def reference_samples(self, *, skip: float = REFERENCE_SKIP_S) -> np.ndarray:
+        """The samples the error against the reference is taken over: informed by motion, after the
+        first ``skip`` s, with a non-zero reference (bool, shape (n,)). Needs a reference."""
+        return self.observable & (self.trial.time - self.trial.time[0] >= skip) & (self.reference != 0)
+
+    def reference_error(self, *, skip: float = REFERENCE_SKIP_S) -> dict | None:
+        """Relative error against the reference stiffness, over :meth:`reference_samples`.
 
         Returns
         -------
@@ -204,7 +211,7 @@ class StiffnessResult:
         """
         if self.reference is None:
             return None
-        use = self.observable & (self.trial.time - self.trial.time[0] >= skip) & (self.reference != 0)
+        use = self.reference_samples(skip=skip)
         if not np.any(use):
             return {"median": None, "p90": None, "coverage": None, "n": 0}
         rel = np.abs(self.stiffness[use] - self.reference[use]) / np.abs(self.reference[use])

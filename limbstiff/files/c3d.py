@@ -101,8 +101,9 @@ def read_c3d(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
                          locate=lambda k: f"{kind} frame {k + 1}")
 
 
-def _labels(c3d, group: str) -> list[str]:
-    return [str(x).strip() for x in _parameter(c3d, group, "LABELS") or []]
+def _strings(c3d, group: str, name: str) -> list[str]:
+    """A parameter's values as stripped strings (empty when the file lacks it)."""
+    return [str(x).strip() for x in _parameter(c3d, group, name) or []]
 
 
 def _parameter(c3d, group: str, name: str):
@@ -116,14 +117,14 @@ def _channel(where: str, c3d, column) -> tuple[str, np.ndarray, str]:
     """(``analog`` or ``point``, values in the file's or the protocol's unit, that unit) of one
     mapped channel."""
     label = column.header.strip()
-    analog, points = _labels(c3d, "ANALOG"), _labels(c3d, "POINT")
+    analog, points = _strings(c3d, "ANALOG", "LABELS"), _strings(c3d, "POINT", "LABELS")
     if label in analog:
         if column.component is not None:
             raise TrialError(where, f"'{label}' is an analog channel: it has no component (remove component)")
         k = analog.index(label)
         data = np.asarray(c3d["data"]["analogs"][0, k, :], dtype=float)
-        units = _parameter(c3d, "ANALOG", "UNITS") or []
-        return "analog", data, _unit(where, label, column.unit, str(units[k]).strip() if k < len(units) else "")
+        units = _strings(c3d, "ANALOG", "UNITS")
+        return "analog", data, _unit(where, label, column.unit, units[k] if k < len(units) else "")
     if label in points:
         if column.component is None:
             raise TrialError(where, f"'{label}' is a point channel with components x, y, z: give component = "
@@ -143,17 +144,13 @@ def _channel(where: str, c3d, column) -> tuple[str, np.ndarray, str]:
 
 def _listed(c3d, label: str, listings: tuple[str, ...]) -> bool:
     """Whether the file lists ``label`` under one of the POINT parameters ``listings``."""
-    return any(label in [str(x).strip() for x in _parameter(c3d, "POINT", name) or []] for name in listings)
+    return any(label in _strings(c3d, "POINT", name) for name in listings)
 
 
 def _point_unit(c3d, label: str) -> str:
     """The file's unit of a point channel: that of its kind (angles, moments…) or POINT:UNITS."""
-    for listing, unit in POINT_KINDS:
-        if label in [str(x).strip() for x in _parameter(c3d, "POINT", listing) or []]:
-            value = _parameter(c3d, "POINT", unit)
-            return str(value[0]).strip() if value else ""
-    value = _parameter(c3d, "POINT", "UNITS")
-    return str(value[0]).strip() if value else ""
+    unit = next((unit for listing, unit in POINT_KINDS if _listed(c3d, label, (listing,))), "UNITS")
+    return (_strings(c3d, "POINT", unit) or [""])[0]
 
 
 def _unit(where: str, label: str, given: str | None, in_file: str) -> str:

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import TrialError
-from .units import UNITS, parse_standard_header, to_si, unit_in_header
+from .units import DIMENSION_KIND, UNITS, parse_standard_header, to_si, unit_in_header
 
 _DISPLACEMENT = ("position", "angle")
 _FORCE = ("elastic_force", "force", "elastic_torque", "torque")
@@ -80,9 +80,9 @@ def read_pairs(path: str | Path, *, displacement: str | None = None,
             raise TrialError(path, f"column '{col}' has a missing or non-numeric value at data row {bad[0] + 1}")
         out.append(to_si(values, unit))
         dimensions.append(UNITS[unit].dimension)
-    kinds = {"angle": "rotational", "torque": "rotational", "length": "translational", "force": "translational"}
+    kind = DIMENSION_KIND[dimensions[0]]
     if dimensions[0] not in ("angle", "length") or dimensions[1] not in ("torque", "force") \
-            or kinds[dimensions[0]] != kinds[dimensions[1]]:
+            or DIMENSION_KIND[dimensions[1]] != kind:
         raise TrialError(path, f"displacement in {dimensions[0]} units and force in {dimensions[1]} units: pairs are "
                                "an angle with a torque or a length with a force")
-    return out[0], out[1], kinds[dimensions[0]]
+    return out[0], out[1], kind

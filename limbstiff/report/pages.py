@@ -14,12 +14,11 @@ import textwrap
 import numpy as np
 
 from ..digest import headline_rows, recording_rows, verdict_line
+from ..result import REFERENCE_SKIP_S
 from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, envelope, envelope_band, fmt, grid, new_page,
                      robust_limits, shade_false, text_panel)
 from .plots import names, plot_relation, plot_stiffness, recorded_torque
 
-#: Seconds at the start of a trial left out of the reference error (as in reference_error()).
-REFERENCE_SKIP_S = 2.0
 
 
 def summary_page(result):
@@ -158,7 +157,7 @@ def reference_page(result):
     ax1.plot(*envelope(t, rel), lw=0.7, color="C3", label="(estimate − reference) / reference")
     ax1.axhline(0, color="k", lw=0.6)
     ax1.axvspan(t[0], t[0] + REFERENCE_SKIP_S, color="C1", alpha=0.12, lw=0, label="left out (first 2 s)")
-    use = result.observable & (t - t[0] >= REFERENCE_SKIP_S)           # as reference_error() takes them
+    use = result.reference_samples()
     shown = np.flatnonzero(use)
     shown = shown[::max(1, shown.size // LIMIT_VALUES)]
     limits = robust_limits(np.concatenate([rel[shown], width[shown], -width[shown]]) if shown.size else rel, pad=0.3)
@@ -168,7 +167,7 @@ def reference_page(result):
     ax1.set_xlabel("time [s]")
     ax1.set_xlim(t[0], t[-1])
     ax1.legend(loc="upper right", ncols=2)
-    err = result.reference_error(skip=REFERENCE_SKIP_S)
+    err = result.reference_error()
     ax2 = fig.add_subplot(gs[1, 0])
     ax3 = fig.add_subplot(gs[1, 1])
     good = use & np.isfinite(rel)
