@@ -19,7 +19,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..provenance import dependency_versions, settings_hash
-from .common import footer, style, write_pdf
+from .common import footer, lean_ticks, style, write_pdf
 from .mechanics import mechanics_page
 from .pages import reference_page, relation_page, summary_page, time_page
 from .quality import quality_page
@@ -55,6 +55,7 @@ def report_figures(result) -> list:
         figures = [fig for fig in (page(result) for page in PAGES) if fig is not None]
         lines = provenance_lines(result)
         for k, fig in enumerate(figures, start=1):
+            lean_ticks(fig)
             footer(fig, lines, k, len(figures))
     return figures
 
