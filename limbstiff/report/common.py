@@ -131,8 +131,8 @@ def text_panel(ax, lines: Sequence[tuple[str, str]] | str, *, title: str | None 
         ax.text(*xy, "\n".join(textwrap.wrap(lines, wrap)), transform=tr, fontsize=fontsize, va="top",
                 linespacing=ROW_SPACING)
     else:
-        # two texts, keys and values, each a column of lines: a text costs as much to draw as a
-        # line of it, so one per cell made text panels a fifth of a report's time
+        # two texts, keys and values, each a column of lines: every text is laid out and drawn on
+        # its own, and one per cell made the panels' texts most of a report's text
         keys, values = [], []
         for key, value in lines:
             wrapped = textwrap.wrap(str(value), wrap) or [""]
@@ -147,7 +147,8 @@ def text_panel(ax, lines: Sequence[tuple[str, str]] | str, *, title: str | None 
 
 
 #: Most intervals between labelled ticks on a linear axis: matplotlib's default allows up to 9 on a
-#: page-wide axis; every tick is five artists drawn one by one, about a fifth of a report's time.
+#: page-wide axis; every tick is five artists, made and drawn one by one (profiled: a quarter of a
+#: trial report's time).
 TICK_BINS = 5
 
 

@@ -15,8 +15,8 @@ import numpy as np
 
 from ..digest import headline_rows, recording_rows, verdict_line
 from ..result import REFERENCE_SKIP_S
-from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, ROW_SPACING, envelope, envelope_band, fmt, grid, new_page,
-                     robust_limits, shade_false, text_panel)
+from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, ROW_SPACING, envelope, envelope_band, fmt, grid,
+                     new_page, robust_limits, shade_false, text_panel)
 from .plots import names, plot_relation, plot_stiffness, recorded_torque
 
 
@@ -57,7 +57,7 @@ def _key_values(fig, rows: list[tuple[str, str]], y: float, *, fontsize: float, 
                 title: str | None = None, floor: float = 0.0) -> float:
     """Bold labels with their wrapped texts from height ``y`` (page fraction) down, none below
     ``floor`` (the rest counted in a last line); the height reached. Labels and texts are one
-    column of lines each (two texts, not two per row: the page draws in half the time)."""
+    column of lines each: two texts to lay out and draw, not two per row."""
     line = ROW_SPACING * 1.05 * fontsize / 72 / A4[1]        # one line, in page fractions
     if title:
         fig.text(0.06, y, title, fontsize=FONT["heading"], weight="bold", va="top")
