@@ -51,22 +51,16 @@ def evaluate(result, skip=2.0):
 
 
 def trial_level_inside(result):
-    """Whether each trial-level interval holds the same figure of the true course (computed at the
-    same steps and informed samples as the estimate's: analysis._trial_level)."""
-    from limbstiff.trial_level import FIGURES, _figures, background_torque, figure_columns
-    f, level = result.filtered, result.trial_level
+    """Whether each trial-level interval holds the same figure of the true course (at the samples
+    the analysis computes them over: analysis.figure_samples_of)."""
+    from limbstiff.analysis import figure_samples_of
+    from limbstiff.trial_level import FIGURES, figures_of
+    level = result.trial_level
     if level is None or not np.isfinite(level.median_stiffness.lo):
         return None
-    idx = np.arange(f.edge, len(f.angle) - f.edge, result.fit.decimation or 1)
-    columns = figure_columns(len(idx))
-    torque = background_torque(f.torque[idx], step=f.sample_period * (result.fit.decimation or 1),
-                               motion_frequency=f.motion_hz)[columns]
-    idx = idx[columns]
-    informed = result.observable[idx]
-    if np.count_nonzero(informed) < 3:
-        informed = np.ones(len(idx), dtype=bool)
-    torque = torque[informed]
-    truth = _figures(result.trial.stiffness_true[idx][informed][None, :], torque)[0]
+    samples = figure_samples_of(result.filtered, result.observable)
+    informed = samples.informed
+    truth = figures_of(result.trial.stiffness_true[samples.index][informed][None, :], samples.torque[informed])[0]
     return [getattr(level, name).lo <= t <= getattr(level, name).hi for name, t in zip(FIGURES, truth)]
 
 

@@ -21,13 +21,13 @@ from .checks.analysis import sign_hint
 from .errors import TrialError
 from .estimate import estimators, observer
 from .estimate.course_draws import course_deviations
-from .estimate.kalman import NoiseLevels
+from .estimate.kalman import NoiseLevels, step_index
 from .filtered import Filtered, filter_trial
 from .mechanics.identification import Identification, identify_mechanics
 from .protocol import Protocol
 from .result import DerivedSettings, StiffnessResult, result_units, software
 from .trial import Trial
-from .trial_level import TrialLevel, background_torque, course_draws_for, figure_columns, trial_level
+from .trial_level import FigureSamples, TrialLevel, course_draws_for, figure_samples, trial_level
 
 #: Default memory of the observer, as a fraction of the range of motion: by (8) the estimate
 #: forgets its past as exp(−α·path), so 1/α is the path over which it averages the local slope.
@@ -158,35 +158,36 @@ def _coupling(trial: Trial, filtered: Filtered) -> CouplingFit | None:
                            signal_edge_hz=filtered.bandwidth.signal_edge_hz)
 
 
+def figure_samples_of(filtered: Filtered, observable: np.ndarray) -> FigureSamples:
+    """The samples of a trial's figures: the Kalman model's steps (whichever estimator ran), thinned."""
+    decimation = estimators.kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
+    steps = step_index(len(filtered.angle), edge=filtered.edge, decimation=decimation)
+    return figure_samples(steps, filtered.torque, observable, step=filtered.sample_period * decimation,
+                          motion_frequency=filtered.motion_hz)
+
+
 def _trial_level(filtered: Filtered, estimate: estimators.Estimate, ident: Identification | None,
                  observable: np.ndarray, *, limb, level: float, seed: int) -> TrialLevel:
     """The trial-level figures over joint draws of the course at the Kalman model's steps (its
     posterior, :func:`course_deviations`, plus posterior draws of m and b through the estimate's
     sensitivity), on the informed steps; ``limb`` maps a one-body stiffness to the limb's."""
-    if estimate.steps is not None:
-        idx, step = estimate.steps.index, estimate.steps.step
-    else:
-        decimation = estimators.kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
-        idx = np.arange(filtered.edge, len(filtered.angle) - filtered.edge, decimation)
-        step = filtered.sample_period * decimation
+    samples = figure_samples_of(filtered, observable)
     rng = np.random.default_rng([seed, 14])
-    columns = figure_columns(len(idx))
-    torque = background_torque(filtered.torque[idx], step=step, motion_frequency=filtered.motion_hz)[columns]
-    idx = idx[columns]
-    n_draws = course_draws_for(len(columns) if estimate.steps is None else len(estimate.steps.index))
-    base = estimate.stiffness[idx]
+    n_draws = course_draws_for(len(samples.index) if estimate.steps is None else len(estimate.steps.index))
+    base = estimate.stiffness[samples.index]
     draws, sources = np.repeat(base[None, :], n_draws, axis=0), []
     if estimate.steps is not None:
-        draws += course_deviations(estimate.steps, estimate.fit.noise, draws=n_draws, rng=rng, columns=columns)
+        draws += course_deviations(estimate.steps, estimate.fit.noise, draws=n_draws, rng=rng,
+                                   columns=samples.columns)
         sources.append("course")
     if ident is not None and ident.posterior is not None and estimate.sensitivity is not None:
         mech = ident.posterior.mechanics[rng.integers(0, len(ident.posterior.mechanics), n_draws)]
-        draws += (mech - [ident.inertia.median, ident.damping.median]) @ estimate.sensitivity[:, idx]
+        draws += (mech - [ident.inertia.median, ident.damping.median]) @ estimate.sensitivity[:, samples.index]
         sources.append("mechanics")
     if not sources:
         draws = np.full_like(draws, np.nan)           # no joint uncertainty: no interval claimed
-    informed = observable[idx] if np.count_nonzero(observable[idx]) >= 3 else np.ones(len(idx), dtype=bool)
-    return trial_level(limb(base)[informed], limb(draws)[:, informed], torque[informed], level=level,
+    informed = samples.informed
+    return trial_level(limb(base)[informed], limb(draws)[:, informed], samples.torque[informed], level=level,
                        sources=tuple(sources))
 
 

@@ -98,7 +98,57 @@ def background_torque(torque: np.ndarray, *, step: float, motion_frequency: floa
     return uniform_filter1d(np.asarray(torque, dtype=float), max(1, min(width, len(torque))), mode="nearest")
 
 
-def _figures(course: np.ndarray, torque: np.ndarray) -> np.ndarray:
+@dataclass(frozen=True)
+class FigureSamples:
+    """The samples the trial-level figures are computed over.
+
+    Parameters
+    ----------
+    columns : ndarray of int, shape (c,)
+        Which of the model's steps are kept (:func:`figure_columns`).
+    index : ndarray of int, shape (c,)
+        The sample of each kept step.
+    torque : ndarray, shape (c,), N·m (N)
+        Background torque there (:func:`background_torque`).
+    informed : ndarray of bool, shape (c,)
+        Informed by motion; all True when fewer than 3 are (the figures then use every sample).
+    """
+
+    columns: np.ndarray
+    index: np.ndarray
+    torque: np.ndarray
+    informed: np.ndarray
+
+
+def figure_samples(steps: np.ndarray, torque: np.ndarray, observable: np.ndarray, *, step: float,
+                   motion_frequency: float) -> FigureSamples:
+    """The samples of the figures: the model's steps thinned, with their background torque.
+
+    Parameters
+    ----------
+    steps : ndarray of int, shape (m,)
+        Sample of each model step (:func:`~limbstiff.estimate.kalman.step_index`).
+    torque : ndarray, shape (n,), N·m (N)
+        The recorded (filtered) torque at every sample.
+    observable : ndarray of bool, shape (n,)
+    step : float, s
+        Time between model steps.
+    motion_frequency : float, Hz
+
+    Returns
+    -------
+    FigureSamples
+    """
+    columns = figure_columns(len(steps))
+    background = background_torque(np.asarray(torque)[steps], step=step, motion_frequency=motion_frequency)
+    index = steps[columns]
+    informed = observable[index]
+    if np.count_nonzero(informed) < 3:
+        informed = np.ones(len(index), dtype=bool)
+    return FigureSamples(columns, index, background[columns], informed)
+
+
+def figures_of(course: np.ndarray, torque: np.ndarray) -> np.ndarray:
     """(median, at mean torque, slope) of each course (k, m) over samples with torque (m,): (k, 3)."""
     tc = torque - torque.mean()
     spread = float(tc @ tc)
@@ -126,8 +176,8 @@ def trial_level(estimate: np.ndarray, draws: np.ndarray, torque: np.ndarray, *, 
     -------
     TrialLevel
     """
-    point = _figures(estimate[None, :], torque)[0]
-    spread = _figures(draws, torque)
+    point = figures_of(estimate[None, :], torque)[0]
+    spread = figures_of(draws, torque)
     lo, hi = np.quantile(spread, [0.5 - level / 2, 0.5 + level / 2], axis=0)
     # the figure's own bias (draws centred on the estimate, not on the figure): intervals about
     # the point estimate, widths from the draws

@@ -302,11 +302,17 @@ class ModelSteps:
     initial_cov: tuple
 
 
+def step_index(samples: int, *, edge: int, decimation: int) -> np.ndarray:
+    """The sample of each filter step: every ``decimation``-th from ``edge`` to ``samples − edge``
+    (shape (m,)); the trial-level figures use the same steps, whatever the estimator."""
+    return np.arange(edge, samples - edge, decimation)
+
+
 def model_steps(angle: np.ndarray, measured: np.ndarray, *, sample_period: float, decimation: int, edge: int,
                 motion_frequency: float, scale_from: np.ndarray | None = None) -> ModelSteps:
     """Every ``decimation``-th sample between the ``edge`` samples at each end, with the model's
     initial state (arguments as :func:`kalman_stiffness`)."""
-    idx = np.arange(edge, len(angle) - edge, decimation)
+    idx = step_index(len(angle), edge=edge, decimation=decimation)
     y, z = angle[idx], measured[idx]
     step = sample_period * decimation
     return ModelSteps(index=idx, angle=y, measured=z, increments=np.diff(y, prepend=y[0]),

@@ -11,12 +11,12 @@ row of ``<quantity>_<unit>`` names or names mapped by a protocol) and its common
   a plain quantity header (``angle``) into a standard one (``angle_deg``).
 
 The protocol's ``[format]`` settings (``delimiter``, ``decimal``, ``unit_row``) replace the
-detection. Every cell of a used column is checked; nothing is coerced silently.
+detection (:mod:`limbstiff.files.dialect`). Every cell of a used column is checked; nothing is
+coerced silently.
 """
 
 from __future__ import annotations
 
-import csv as _csv
 import io
 import re
 from pathlib import Path
@@ -28,16 +28,12 @@ import pandas as pd
 from ..errors import TrialError
 from ..trial import Trial
 from .columns import ColumnSpec, joint_kind, resolve_columns
-from .units import FIELDS, UNITS, to_si
+from .dialect import DECIMAL_COMMA, SNIFF_LINES, detect_layout
+from .units import FIELDS, to_si
 from .validate import checked_trial
 
 _NAN_WORDS = {"nan", "-nan", "+nan", "na", "n/a", "#n/a", "null", "none"}
 _PANDAS_LINE = re.compile(r"Expected (\d+) fields in line (\d+), saw (\d+)")
-_DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+(?:[eE][-+]?\d+)?$")
-_QUOTED = re.compile(r'"[^"]*"')
-_NAMES = {",": "','", ";": "';'", "\t": "tabs"}
-#: Data lines looked at to detect a decimal comma.
-_SNIFF_LINES = 50
 
 
 def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None) -> Trial:
@@ -77,50 +73,13 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     else:
         metadata, header_line, rest = body.metadata, body.header, body.head
     del text
-    layout = _layout(where, header_line, rest, protocol)
+    layout = detect_layout(where, header_line, rest, protocol)
     columns = resolve_columns(where, layout.headers, protocol, units=layout.units)
     kind = joint_kind(where, columns)
     numbers, source = _data_rows(raw, body, layout.rows, skipped=len(rest) - len(layout.rows))
     values = _parse(where, layout.headers, columns, source, numbers, layout.delimiter, layout.decimal)
     return checked_trial(path, source_bytes, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
                          warnings=notes + _ignored(layout.headers, columns), locate=lambda k: f"line {numbers[k]}")
-
-
-class _Layout(NamedTuple):
-    """How the rows of a text trial are written, detected or as the protocol says.
-
-    Parameters
-    ----------
-    headers : list of str
-        Column headers, stripped.
-    units : list of (str or None) or None
-        The unit row, aligned with ``headers``; None without one.
-    rows : list of (int, str)
-        The first data rows (line number, line), below the unit row if any.
-    delimiter : str
-        ``,``, ``\\t`` or ``;``.
-    decimal : str
-        ``.`` or ``,``.
-    """
-
-    headers: list
-    units: list | None
-    rows: list
-    delimiter: str
-    decimal: str
-
-
-def _layout(where: str, header_line: str, rest: list, protocol) -> _Layout:
-    """Delimiter, headers, unit row and decimal mark, from the protocol's ``[format]`` or detected
-    in ``header_line`` and the first rows below it, ``rest`` (line number, line)."""
-    forced = getattr(protocol, "delimiter", "auto")
-    delimiter = _detect_delimiter(header_line) if forced == "auto" else forced
-    headers = _headers(where, header_line, delimiter, forced=forced != "auto")
-    units, rows = _unit_row(where, rest, delimiter, getattr(protocol, "unit_row", "auto"))
-    if not rows:
-        raise TrialError(where, "no data rows below the header")
-    decimal = _detect_decimal(where, rows, delimiter, getattr(protocol, "decimal", "auto"))
-    return _Layout(headers, units, rows, delimiter, decimal)
 
 
 def _data_rows(raw: bytes, body: _Body | None, rows: list, skipped: int):
@@ -259,7 +218,7 @@ def _body(text: str, raw: bytes) -> _Body | None:
         head.append((number, line.rstrip("\r\n")))
         offsets.append(pos)
         pos += len(line.encode("utf-8"))
-        if len(head) > _SNIFF_LINES:
+        if len(head) > SNIFF_LINES:
             break
     rows = text.count("\n", char) + (0 if text.endswith("\n") else 1) if len(text) > char else 0
     return _Body(metadata, header, head, offsets, rows)
@@ -273,82 +232,6 @@ def _lines(text: str):
         end = len(text) if end < 0 else end + 1
         yield text[start:end]
         start = end
-
-
-def _detect_delimiter(line: str) -> str:
-    """The most frequent of comma, tab and semicolon outside quotes (comma on a tie)."""
-    bare = _QUOTED.sub("", line)
-    counts = {d: bare.count(d) for d in (",", "\t", ";")}
-    return max(counts, key=lambda d: (counts[d], d == ","))
-
-
-def _cells(line: str, delimiter: str) -> list[str]:
-    return [c.strip() for c in next(_csv.reader([line], delimiter=delimiter))]
-
-
-def _headers(where: str, line: str, delimiter: str, forced: bool) -> list[str]:
-    headers = _cells(line, delimiter)
-    if len(headers) == 1:
-        others = [d for d in (",", ";", "\t") if d != delimiter and d in headers[0]]
-        if forced and others:
-            raise TrialError(where, f"the header has a single column: the file is not separated by "
-                                    f"{_NAMES[delimiter]} as the protocol says (it uses {_NAMES[others[0]]})")
-        if len(headers[0].split()) > 1:
-            raise TrialError(where, f"the header '{headers[0][:40]}' is a single column: separate the "
-                                    f"fields with commas, tabs or semicolons (spaces are not supported)")
-    seen: dict[str, int] = {}
-    for i, h in enumerate(headers):
-        if h and h in seen:
-            raise TrialError(where, f"duplicated column header '{h}' (columns {seen[h] + 1} and {i + 1})")
-        seen[h] = i
-    return headers
-
-
-def _unit_cell(cell: str) -> str | None:
-    """A unit-row cell without brackets (``[deg]`` → ``deg``); None when empty or ``-``."""
-    cell = cell.strip()
-    if len(cell) > 2 and cell[0] + cell[-1] in ("[]", "()"):
-        cell = cell[1:-1].strip()
-    return None if cell in ("", "-") else cell
-
-
-def _is_number(cell: str) -> bool:
-    try:
-        float(cell.replace(",", "."))
-    except ValueError:
-        return False
-    return True
-
-
-def _unit_row(where: str, rest, delimiter: str, setting):
-    """The unit row (a list aligned with the headers, or None) and the data lines below it.
-
-    With ``setting == "auto"`` the first line below the header is a unit row when none of its
-    cells is a number and at least one is a known unit.
-    """
-    if not rest or setting is False:
-        return None, rest
-    number, line = rest[0]
-    cells = _cells(line, delimiter)
-    units = [_unit_cell(c) for c in cells]
-    numeric = [c for c in cells if c and _is_number(c)]
-    if setting == "auto" and (numeric or not any(u in UNITS for u in units)):
-        return None, rest
-    if numeric:
-        raise TrialError(where, f"line {number} should be the unit row (the protocol says unit_row = true) "
-                                f"but holds the number '{numeric[0][:20]}'")
-    return units, rest[1:]
-
-
-def _detect_decimal(where: str, rest, delimiter: str, setting: str) -> str:
-    if setting == "auto":
-        if delimiter == ",":
-            return "."
-        sample = (c for _, line in rest[:_SNIFF_LINES] for c in _cells(line, delimiter))
-        return "," if any(_DECIMAL_COMMA.match(c) for c in sample) else "."
-    if setting == "," and delimiter == ",":
-        raise TrialError(where, "the protocol says decimal = ',' but the file is comma-separated")
-    return setting
 
 
 def _parse(where, headers, columns, source, numbers, delimiter, decimal) -> dict[str, np.ndarray | None]:
@@ -415,7 +298,7 @@ def _bad_cell(cell: str, number: float, column: ColumnSpec, line: int, time: flo
         return f"infinite value '{cell}' {at}"
     if decimal == "," and "." in cell:
         return f"non-numeric value '{cell[:30]}' {at} (the file uses decimal commas)"
-    if decimal == "." and _DECIMAL_COMMA.match(cell):
+    if decimal == "." and DECIMAL_COMMA.match(cell):
         return (f"non-numeric value '{cell[:30]}' {at} (a decimal comma? set decimal = \",\" "
                 f"in the protocol's [format])")
     return f"non-numeric value '{cell[:30]}' {at}"
