@@ -13,7 +13,7 @@ accuracy benchmark's stiffness ramps: the band is 3–4× the error there. Two s
   noise at the motion's frequencies, where the stiffness is measured.
 
 For every scenario of ``benchmarks/accuracy.py`` (m and b identified by ``analyze``), this fits
-three models by maximum likelihood at the Kalman steps and compares their smoothed stiffness and
+four models by maximum likelihood at the Kalman steps and compares their smoothed stiffness and
 90 % band with the truth (informed samples after the first 2 s; the band adds the m, b part of
 the shipped analysis to each):
 
@@ -22,7 +22,10 @@ the shipped analysis to each):
   deflected spring's torque as w_c does; noise levels R, Q_s, Q_σ, Q_c, Q_τ;
 * ``irw+ma2``: the same with measurement noise a + r, a an MA(2) process u[k] + θ₁·u[k−1] +
   θ₂·u[k−2] (its variance Q_u, θ fitted; θ = (−2, 1) is a second difference, the shape of
-  quantisation through ÿ) and r white.
+  quantisation through ÿ) and r white;
+* ``irw+ma2+angle``: the same with a stiffness that depends on the deflection g (the angle less its
+  moving average): σ₀ + σ₁·g + σ₂·g², σ₁ and σ₂ walking slowly (Q₁, Q₂), the torque following
+  ds = σ(g)·dy. A second-order expansion of any smooth spring about the working point.
 
 The models here are a generic Kalman filter and RTS smoother (numba, dense matrices), written
 for this experiment only: the package's kernels are specialised to the two-state model. Writes
@@ -50,10 +53,11 @@ from limbstiff.estimate.kalman import at_steps  # noqa: E402
 from limbstiff.simulate import simulate  # noqa: E402
 
 Z90 = 1.6448536269514722
+MODELS = ("rw", "irw", "irw+ma2", "irw+ma2+angle")
 
 
 @numba.njit(cache=True)
-def _transition(F, dy, g, dt, d):
+def _transition(F, dy, g, g_prev, dt, angle, noise_at):
     F[:, :] = 0.0
     F[0, 0] = 1.0
     F[0, 1] = dy
@@ -61,38 +65,49 @@ def _transition(F, dy, g, dt, d):
     F[1, 1] = 1.0
     F[1, 2] = dt
     F[2, 2] = 1.0
-    if d == 6:
-        F[4, 3] = 1.0
-        F[5, 4] = 1.0
+    if angle:
+        mid = 0.5 * (g + g_prev)
+        F[0, 3] = mid * dy
+        F[0, 4] = mid * mid * dy
+        F[3, 3] = 1.0
+        F[4, 4] = 1.0
+    if noise_at > 0:
+        F[noise_at + 1, noise_at] = 1.0
+        F[noise_at + 2, noise_at + 1] = 1.0
 
 
 @numba.njit(cache=True)
-def kalman_irw(dy, g, z, dt, levels, theta, x0, P0, smooth):
-    """Filter (and RTS smoother) of the IRW model, with the MA(2) noise states when len(x0) == 6.
+def kalman_irw(dy, g, z, dt, levels, theta, x0, P0, angle, ma2, smooth):
+    """Filter (and RTS smoother) of the IRW model: states s, σ₀, τ; with ``angle`` also σ₁, σ₂ (the
+    stiffness σ₀ + σ₁·g + σ₂·g² at deflection g); with ``ma2`` the MA(2) noise states last.
 
-    levels = (R, Q_s, Q_σ, Q_c, Q_τ, Q_u); theta = (θ₁, θ₂). Returns smoothed means (n, d),
-    variances of σ (n,) and the log-likelihood.
+    levels = (R, Q_s, Q_σ, Q_c, Q_τ, Q_u, Q₁, Q₂); theta = (θ₁, θ₂). Returns the smoothed means
+    (n, d), covariances (n, d, d) and the log-likelihood.
     """
     n, d = len(z), len(x0)
-    R, Qs, Qsig, Qc, Qtau, Qu = levels
+    R, Qs, Qsig, Qc, Qtau, Qu, Q1, Q2 = levels
+    noise_at = d - 3 if ma2 else 0
     xf, Pf = np.zeros((n, d)), np.zeros((n, d, d))
     xp, Pp = np.zeros((n, d)), np.zeros((n, d, d))
     F, Q = np.zeros((d, d)), np.zeros((d, d))
     H = np.zeros(d)
     H[0] = 1.0
-    if d == 6:
-        H[3], H[4], H[5] = 1.0, theta[0], theta[1]
+    if ma2:
+        H[noise_at], H[noise_at + 1], H[noise_at + 2] = 1.0, theta[0], theta[1]
     x, P, ll = x0.copy(), P0.copy(), 0.0
     for k in range(n):
         if k > 0:
-            _transition(F, dy[k], g[k], dt, d)
+            _transition(F, dy[k], g[k], g[k - 1], dt, angle, noise_at)
             Q[:, :] = 0.0
             Q[0, 0] = (Qs + g[k] * g[k] * Qc) * dt
             Q[0, 1] = Q[1, 0] = g[k] * Qc * dt
             Q[1, 1] = (Qsig + Qc) * dt
             Q[2, 2] = Qtau * dt
-            if d == 6:
-                Q[3, 3] = Qu
+            if angle:
+                Q[3, 3] = Q1 * dt
+                Q[4, 4] = Q2 * dt
+            if ma2:
+                Q[noise_at, noise_at] = Qu
             x = F @ x
             P = F @ P @ F.T + Q
         xp[k], Pp[k] = x, P
@@ -107,28 +122,45 @@ def kalman_irw(dy, g, z, dt, levels, theta, x0, P0, smooth):
     xs, Ps = xf.copy(), Pf.copy()
     if smooth:
         for k in range(n - 2, -1, -1):
-            _transition(F, dy[k + 1], g[k + 1], dt, d)
+            _transition(F, dy[k + 1], g[k + 1], g[k], dt, angle, noise_at)
             J = Pf[k] @ F.T @ np.linalg.pinv(Pp[k + 1])
             xs[k] = xf[k] + J @ (xs[k + 1] - xp[k + 1])
             Ps[k] = Pf[k] + J @ (Ps[k + 1] - Pp[k + 1]) @ J.T
-    return xs, Ps[:, 1, 1].copy(), ll
+    return xs, Ps, ll
 
 
-def _model(steps, noise, ma2: bool):
-    """Log-likelihood and smoother of the IRW model as functions of its free parameters q."""
+#: Parameters of each model: ln R, ln Q_s, ln Q_σ, ln Q_c, ln Q_τ, then θ₁, θ₂, ln Q_u (ma2), then
+#: ln Q₁, ln Q₂ (angle).
+def _model(steps, noise, ma2: bool, angle: bool = False):
+    """Log-likelihood and smoother of the IRW model as functions of its free parameters q; the
+    smoother gives the stiffness at each step and its variance."""
     n = len(steps.measured)
     duration = n * steps.step
     p11, _, p22 = steps.initial_cov
-    d = 6 if ma2 else 3
+    d = 3 + 2 * angle + 3 * ma2
+    g = steps.deflection
+    spread = max(float(np.std(g)), 1e-12)
 
     def run(q, smooth=False):
-        levels = np.exp(np.r_[q[:5], q[7] if ma2 else -np.inf])
-        theta = np.array([q[5], q[6]]) if ma2 else np.zeros(2)
+        k = 5
+        theta, qu = np.zeros(2), -np.inf
+        if ma2:
+            theta, qu, k = np.array([q[5], q[6]]), q[7], 8
+        q12 = q[k:k + 2] if angle else [-np.inf, -np.inf]
+        levels = np.exp(np.r_[q[:5], qu, q12])
         x0 = np.zeros(d)
         x0[:2] = steps.initial_mean
-        P0 = np.diag(np.r_[p11, p22, 100 * p22 / duration ** 2, [levels[5]] * (d - 3)])
-        return kalman_irw(steps.increments, steps.deflection, steps.measured, steps.step, levels, theta, x0, P0,
-                          smooth)
+        diag = [p11, p22, 100 * p22 / duration ** 2] + ([100 * p22 / spread ** 2, 100 * p22 / spread ** 4]
+                                                        if angle else []) + [levels[5]] * (3 * ma2)
+        xs, Ps, ll = kalman_irw(steps.increments, g, steps.measured, steps.step, levels, theta, x0, np.diag(diag),
+                                angle, ma2, smooth)
+        if not smooth:
+            return None, None, ll
+        h = np.zeros((n, d))
+        h[:, 1] = 1.0
+        if angle:
+            h[:, 3], h[:, 4] = g, g * g
+        return np.sum(h * xs, axis=1), np.einsum("ki,kij,kj->k", h, Ps, h), ll
     return run
 
 
@@ -163,20 +195,27 @@ def compare(name: str, seed: int) -> list[dict]:
                  result.fit.loglik, 0.0)]
     t0 = time.perf_counter()
     irw = _model(steps, noise, ma2=False)
-    q_irw = _fit(irw, [np.r_[noise.logs(), tau0 + shift, 0.0, 0.0, 0.0] for shift in (0.0, -8.0)])
+    q_irw = _fit(irw, [np.r_[noise.logs(), tau0 + shift] for shift in (0.0, -8.0)])
     rows.append(_evaluate("irw", irw, q_irw, use, truth, mech, result.fit.loglik, time.perf_counter() - t0))
     t0 = time.perf_counter()
     ma2 = _model(steps, noise, ma2=True)
     starts = [np.r_[q_irw[:5] - [2, 0, 0, 0, 0], theta, noise.logs()[0] - 2]
               for theta in ((-2.0, 1.0), (-1.0, 0.0), (0.0, 0.0))]
-    rows.append(_evaluate("irw+ma2", ma2, _fit(ma2, starts), use, truth, mech, result.fit.loglik,
+    q_ma2 = _fit(ma2, starts)
+    rows.append(_evaluate("irw+ma2", ma2, q_ma2, use, truth, mech, result.fit.loglik, time.perf_counter() - t0))
+    t0 = time.perf_counter()
+    both = _model(steps, noise, ma2=True, angle=True)
+    walk = np.log(steps.initial_cov[2] / duration) - 2 * np.log(max(float(np.std(steps.deflection)), 1e-12))
+    starts = [np.r_[q_ma2, walk + shift, walk + shift - 2 * np.log(max(float(np.std(steps.deflection)), 1e-12))]
+              for shift in (-4.0, -12.0)]
+    rows.append(_evaluate("irw+ma2+angle", both, _fit(both, starts), use, truth, mech, result.fit.loglik,
                           time.perf_counter() - t0))
     return rows
 
 
 def _evaluate(model, run, q, use, truth, mech, rw_loglik, seconds):
-    xs, var, ll = run(q, smooth=True)
-    return _row(model, at_steps(xs[:, 1])[use], at_steps(np.maximum(var, 0.0))[use] + mech, truth, ll, rw_loglik,
+    stiffness, var, ll = run(q, smooth=True)
+    return _row(model, at_steps(stiffness)[use], at_steps(np.maximum(var, 0.0))[use] + mech, truth, ll, rw_loglik,
                 seconds)
 
 
@@ -192,7 +231,7 @@ def main(seeds: int, names: list[str]) -> str:
              "| log-likelihood − rw's | fit time |", "|---|---|---|---|---|---|---|"]
     for name in names:
         per = [compare(name, seed) for seed in range(seeds)]
-        for k, model in enumerate(("rw", "irw", "irw+ma2")):
+        for k, model in enumerate(MODELS):
             rows = [p[k] for p in per]
             cov = ", ".join(f"{100 * r['coverage']:.0f} %" for r in rows)
             rms = ", ".join(f"{r['rms_z']:.2f}" for r in rows)
@@ -215,5 +254,6 @@ if __name__ == "__main__":
         f"{args.seeds} seeds per scenario of the accuracy benchmark, m and b identified by `analyze`; informed "
         f"samples after the first 2 s, at the Kalman steps. Machine: {machine()}.", "",
         "`rw`: the shipped model; `irw`: the stiffness's rate of change as a state; `irw+ma2`: that, with "
-        "MA(2) measurement noise besides the white. A calibrated band has coverage near 90 % and an rms of "
+        "MA(2) measurement noise besides the white; `irw+ma2+angle`: that, with a stiffness quadratic in the "
+        "deflection. A calibrated band has coverage near 90 % and an rms of "
         "error ÷ band sd near 1 (below 1: the band is too wide).", "", table]))
