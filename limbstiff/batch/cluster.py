@@ -15,11 +15,11 @@ The extra is optional: ``pip install "limbstiff[dask]"``.
 from __future__ import annotations
 
 import contextlib
-import uuid
 from pathlib import Path
 from typing import Iterator
 
 from ..errors import LimbstiffError
+from ..files.probe import holds, probe_file
 
 #: Seconds to wait for a scheduler, and for a worker to answer the shared-folder probe.
 CONNECT_TIMEOUT_S = 15.0
@@ -64,10 +64,7 @@ def dask_executor(address: str | None, *, timeout: float | None = None) -> Itera
 def _reads(path: str, token: str) -> tuple[bool, str]:
     """On a worker: whether the file at ``path`` holds ``token``, and the worker's limbstiff version."""
     from .. import __version__
-    try:
-        return Path(path).read_text(encoding="utf-8") == token, __version__
-    except OSError:
-        return False, __version__
+    return holds(path, token), __version__
 
 
 def check_shared_folder(executor, folder: Path, *, timeout: float | None = None) -> None:
@@ -82,19 +79,15 @@ def check_shared_folder(executor, folder: Path, *, timeout: float | None = None)
     """
     from .. import __version__
     timeout = PROBE_TIMEOUT_S if timeout is None else timeout
-    token = uuid.uuid4().hex
-    probe = Path(folder).resolve() / f".limbstiff-probe-{token}"
-    probe.write_text(token, encoding="utf-8")
-    try:
-        seen, version = executor.submit(_reads, str(probe), token).result(timeout=timeout)
-    except TimeoutError:
-        raise ClusterError(f"no worker of the cluster answered within {timeout:g} s: start workers "
-                           "(dask worker ADDRESS) or check the scheduler") from None
-    except Exception as exc:  # noqa: BLE001 - any failure on the worker is the cluster's set-up
-        raise ClusterError(f"the cluster's workers cannot run limbstiff ({type(exc).__name__}: "
-                           f"{' '.join(str(exc).split())}); install it where they run") from None
-    finally:
-        probe.unlink(missing_ok=True)
+    with probe_file(folder) as (probe, token):
+        try:
+            seen, version = executor.submit(_reads, str(probe), token).result(timeout=timeout)
+        except TimeoutError:
+            raise ClusterError(f"no worker of the cluster answered within {timeout:g} s: start workers "
+                               "(dask worker ADDRESS) or check the scheduler") from None
+        except Exception as exc:  # noqa: BLE001 - any failure on the worker is the cluster's set-up
+            raise ClusterError(f"the cluster's workers cannot run limbstiff ({type(exc).__name__}: "
+                               f"{' '.join(str(exc).split())}); install it where they run") from None
     if version != __version__:
         raise ClusterError(f"the cluster's workers run limbstiff {version}, this machine {__version__}: "
                            "install the same version on both")
