@@ -10,8 +10,8 @@ from ..estimate.observer import informed_samples
 from ..filtered import Filtered
 from ..mechanics.identification import Identification
 from . import model
-from .verdict import (AGREEMENT_MAX, ANGLE_DEPENDENCE_MAX, BAND_WIDTH_MAX, BAND_ZERO_MAX, BOUND_MARGIN, CAUTION,
-                      HELDOUT_CAUTION, HELDOUT_UNRELIABLE, NEGATIVE_SHARE_MAX, NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE,
+from .verdict import (AGREEMENT_MAX, BAND_WIDTH_MAX, BAND_ZERO_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION,
+                      HELDOUT_UNRELIABLE, NEGATIVE_SHARE_MAX, NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE,
                       VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks, check_at_least, check_at_most,
                       finite_or_none)
 
@@ -105,20 +105,6 @@ def _innovations(stats: model.InnovationStatistics | None, negligible: bool, sha
                       bad="the torque residual follows the velocity (a stretch reflex, friction, a damping the "
                           "model lacks): the stiffness may carry part of it; `limbstiff diagnose` separates them"),
     ]
-
-
-def _angle_dependence(value: float | None, negligible: bool, share: float) -> Check:
-    if value is None:
-        return Check("stiffness_follows_angle", None, ANGLE_DEPENDENCE_MAX, True,
-                     "too few informed motion periods to judge the residual")
-    if negligible:
-        return _negligible("stiffness_follows_angle", value, ANGLE_DEPENDENCE_MAX, share)
-    return check_at_most("stiffness_follows_angle", value, ANGLE_DEPENDENCE_MAX, severity=CAUTION,
-                         good="the torque residual does not follow the angle",
-                         bad="the torque residual follows the angle's square and cube: the stiffness changes "
-                             "with the angle within a motion cycle, faster than the estimate follows, and the band "
-                             "does not hold that error (a strongly nonlinear spring?); the stiffness against angle "
-                             "on page 3 shows the trend, not each cycle")
 
 
 def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
@@ -233,9 +219,7 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
     # the residual's structure is not judged where it is tiny and the model is shown to predict
     # the torque out of sample (noise-free recordings)
     negligible = share < NEGLIGIBLE_RESIDUAL and heldout is not None and heldout >= NEGLIGIBLE_HELDOUT
-    angle = model.angle_dependence(filtered, **kw, observable=observable)
     checks = [_heldout(heldout), *_innovations(model.innovation_statistics(filtered, **kw), negligible, share),
-              _angle_dependence(angle, negligible, share),
               *_stiffness_course(stiffness, lo, hi, observable),
               _noise_levels(model.bound_margins(filtered, **kw), negligible, share), _agreement(ident),
               _inertia_range(ident),

@@ -5,8 +5,6 @@
   elastic torque there is carried across by ds = σ·dy from both sides);
 * :func:`innovation_statistics`: the one-step prediction errors, which are white and
   unrelated to the motion when the model is right;
-* :func:`angle_dependence`: whether the torque the smoother leaves follows the angle's even and
-  odd powers, the mark of a stiffness that changes with the angle within a motion cycle;
 * :func:`elastic_slopes`: the local slope of a torque on the angle, window by window, for the
   sign of the recorded torque.
 
@@ -18,7 +16,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 from ..estimate import kernels
 from ..estimate.estimators import kalman_decimation
@@ -39,8 +36,6 @@ WHITENESS_LAGS = 10
 VELOCITY_LAG_S = 0.1
 #: Fewest model steps a statistic is computed on (below it: not computed, the check passes).
 MIN_STEPS = 100
-#: Fewest informed motion periods the angle-dependence statistic is computed on.
-MIN_BLOCKS = 5
 
 
 @dataclass(frozen=True)
@@ -182,50 +177,6 @@ def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
     xcorr = [float(np.dot(u[k:], v[:n - k]) / n) for k in lags]
     return InnovationStatistics(autocorrelation=max(map(abs, acf), default=0.0),
                                 velocity_correlation=max(map(abs, xcorr), default=0.0))
-
-
-def angle_dependence(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels,
-                     observable: np.ndarray) -> float | None:
-    """Wald statistic that the smoothed torque residual follows the deflection's square and cube.
-
-    A stiffness that changes with the angle within a motion cycle (a cubic spring, σ₀(1 + 3εg²))
-    is faster than the stiffness walk follows: the torque it adds beyond σ̂·dy, ∝ σ̂·g³ (and
-    g² for an asymmetric spring), stays in the residual, and the band does not hold the estimate's
-    error there. The residual e = z − ŝ on the informed steps is regressed on (g², g³)·σ̂/median(σ̂)
-    (g the deflection in units of its sd, centred); W = β'·C⁻¹·β, C the covariance of β from the
-    scores summed over B blocks of one motion period (the residual is correlated within a period).
-    Its chance p under no angle dependence is taken from Hotelling's T² (W·(B − 2)/(2·(B − 1)) ~
-    F(2, B − 2): C is estimated from B blocks) and returned as −2·ln p, the χ²(2) statistic of the
-    same chance, so that one threshold serves short and long trials.
-
-    Returns
-    -------
-    float or None
-        None on fewer than :data:`MIN_STEPS` informed steps or :data:`MIN_BLOCKS` motion periods.
-    """
-    st = _steps(filtered, inertia, damping)
-    informed = np.asarray(observable)[st.index]
-    per = max(1, int(round(1.0 / (filtered.motion_hz * st.step))))
-    if np.count_nonzero(informed) < max(MIN_STEPS, MIN_BLOCKS * per):
-        return None
-    out = kalman_smoother(st.increments, st.measured, noise, step=st.step, deflection=st.deflection,
-                          initial_mean=st.initial_mean, initial_cov=st.initial_cov, loglik=False)
-    g = st.deflection / max(float(np.std(st.deflection)), 1e-300)
-    scale = out.mean[:, 1] / max(abs(float(np.median(out.mean[:, 1]))), 1e-300)
-    x = np.column_stack([g ** 2 - np.mean(g ** 2), g ** 3 - np.mean(g ** 3)]) * scale[:, None]
-    x, e = x[informed], (st.measured - out.mean[:, 0])[informed]
-    e = e - e.mean()
-    beta = np.linalg.lstsq(x, e, rcond=None)[0]
-    blocks = len(e) // per
-    scores = (x * (e - x @ beta)[:, None])[:blocks * per].reshape(blocks, per, 2).sum(axis=1)
-    h = np.linalg.pinv(x.T @ x)
-    cov = h @ (scores.T @ scores) @ h
-    try:
-        wald = float(beta @ np.linalg.solve(cov, beta))
-    except np.linalg.LinAlgError:
-        return None
-    log_p = stats.f.logsf(wald * (blocks - 2) / (2 * (blocks - 1)), 2, blocks - 2)
-    return float(-2.0 * log_p)
 
 
 def dynamic_variance(filtered: Filtered) -> float:

@@ -59,14 +59,6 @@ BOUND_MARGIN = 0.5
 #: on m or b. Clean simulated trials ≤ 0.02; z_df 0.14, z_df3 0.05; simulated backlash (stiffness
 #: 22–35 % off) 0.21–0.26; z_pf2 0.27, z_pf 0.54.
 AGREEMENT_MAX = 0.2
-#: Most χ²(2)-equivalent statistic of the residual on the deflection's square and cube
-#: (:func:`~limbstiff.checks.model.angle_dependence`): 15 is a chance of 5.5·10⁻⁴ without angle
-#: dependence. Measured on 30 s trials: limbstiff's elbow, wrist, ankle and paused elbow (2 seeds
-#: each) 0.2–6.4; the independent simulator's clean trials without a cubic spring 0.0–11.4 (the
-#: highest a gait-like ankle 13 % off and an antagonistic VSA, both with low band coverage); the
-#: angle-dependent elbow 21 and 31; the independent cubic-spring co-contractions 8.5 (3 % off,
-#: band holding 91 %) and 43 (8 % off, band holding 30 %).
-ANGLE_DEPENDENCE_MAX = 15.0
 #: Measurement noise below this share of the torque's variance above half the motion frequency
 #: (an innovation of 1 % of that spread) leaves a residual too small for its structure to matter: the whiteness,
 #: velocity-correlation and noise-bound checks then pass. Noise-free simulations (the paper's
