@@ -129,10 +129,9 @@ def kalman_irw(dy, g, z, dt, levels, theta, x0, P0, angle, ma2, smooth):
     return xs, Ps, ll
 
 
-#: Parameters of each model: ln R, ln Q_s, ln Q_σ, ln Q_c, ln Q_τ, then θ₁, θ₂, ln Q_u (ma2), then
-#: ln Q₁, ln Q₂ (angle).
 def _model(steps, noise, ma2: bool, angle: bool = False):
-    """Log-likelihood and smoother of the IRW model as functions of its free parameters q; the
+    """Log-likelihood and smoother of the IRW model as functions of its free parameters q — ln R,
+    ln Q_s, ln Q_σ, ln Q_c, ln Q_τ, then θ₁, θ₂, ln Q_u (``ma2``), then ln Q₁, ln Q₂ (``angle``); the
     smoother gives the stiffness at each step and its variance."""
     n = len(steps.measured)
     duration = n * steps.step
