@@ -54,13 +54,7 @@ def _one(job) -> dict:
 
 def run(seeds, jobs: int) -> list[dict]:
     with tempfile.TemporaryDirectory() as tmp:
-        names = []
-        for seed in seeds:
-            folder = Path(tmp) / str(seed)
-            folder.mkdir()
-            for spec in independent_trials.suite(seed):
-                independent_trials.write_trial(spec, folder)
-                names.append((str(folder), spec.name))
+        names = independent_trials.write_suites(seeds, Path(tmp))
         with ProcessPoolExecutor(jobs) as pool:
             return list(pool.map(_one, names))
 

@@ -76,13 +76,8 @@ def _one(job) -> dict:
 def run(seeds, jobs: int) -> list[dict]:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        jobs_list = []
-        for seed in seeds:
-            folder = Path(tmp) / str(seed)
-            folder.mkdir()
-            for spec in independent_trials.suite(seed):
-                truth = independent_trials.write_trial(spec, folder)
-                jobs_list += [(str(folder), truth["name"], given) for given in (True, False)]
+        jobs_list = [(folder, name, given) for folder, name in independent_trials.write_suites(seeds, Path(tmp))
+                     for given in (True, False)]
         with ProcessPoolExecutor(jobs) as pool:
             for seed_rows in pool.map(_one, jobs_list):
                 rows.append(seed_rows)

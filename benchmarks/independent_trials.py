@@ -495,6 +495,19 @@ def write_trial(spec: TrialSpec, outdir: Path) -> dict:
     return truth
 
 
+def write_suites(seeds, root: Path) -> list[tuple[str, str]]:
+    """Write the standard suite of each seed into ``root/<seed>/``; (folder, trial name) of every
+    trial written, in order."""
+    written = []
+    for seed in seeds:
+        folder = Path(root) / str(seed)
+        folder.mkdir()
+        for spec in suite(seed):
+            write_trial(spec, folder)
+            written.append((str(folder), spec.name))
+    return written
+
+
 def main(argv: list[str] | None = None) -> int:
     """CLI: write the standard suite into OUTDIR and print the effect-size table."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
