@@ -21,6 +21,7 @@ from .checks.analysis import sign_hint
 from .errors import TrialError
 from .estimate import estimators, observer
 from .estimate.course_draws import course_deviations
+from .estimate.informed import band_informed, uninformed_band
 from .estimate.kalman import NoiseLevels, step_index
 from .filtered import Filtered, filter_trial
 from .mechanics.identification import Identification, identify_mechanics
@@ -191,30 +192,6 @@ def _trial_level(filtered: Filtered, estimate: estimators.Estimate, ident: Ident
                        sources=tuple(sources))
 
 
-def uninformed_band(lo: np.ndarray, hi: np.ndarray, observable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The band where no motion informs the estimate: at least the range the trial's informed band
-    spans, so that it widens honestly where the data say nothing.
-
-    The model's own band there extrapolates the stiffness walk at the rate fitted while the limb
-    moved; a stiffness that changes while nothing moves (a co-contraction, an actuator's new
-    set-point in a motion pause) is not bound by it. Informed samples keep the model's band.
-
-    Parameters
-    ----------
-    lo, hi : ndarray, shape (n,), N·m/rad (N/m)
-    observable : ndarray of bool, shape (n,)
-
-    Returns
-    -------
-    lo, hi : ndarray, shape (n,), N·m/rad (N/m)
-        New arrays; unchanged when no sample (or every sample) is informed.
-    """
-    if observable.all() or not observable.any():
-        return lo, hi
-    lowest, highest = float(np.min(lo[observable])), float(np.max(hi[observable]))
-    return (np.where(observable, lo, np.minimum(lo, lowest)), np.where(observable, hi, np.maximum(hi, highest)))
-
-
 def _limb_stiffness(coupling: CouplingFit | None, stiffness, lo, hi):
     """The limb's stiffness and band when a coupling was found (the one-body estimate is that of
     the springs in series); unchanged otherwise, or when the estimate reaches k_c somewhere."""
@@ -312,6 +289,7 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     if not np.all(np.isfinite(estimate.stiffness)):
         raise TrialError(where, f"the {protocol.discretisation} observer diverged with gain "
                                 f"{derived.observer_gain:.3g} (use the exact discretisation or a lower gain)")
+    observable = band_informed(estimate.variance, observable)
     z = float(stats.norm.ppf(0.5 + protocol.ci_level / 2))
     half = z * np.sqrt(np.maximum(estimate.variance_with(None if ident is None else ident.covariance), 0.0))
     stiffness, lo, hi = _limb_stiffness(coupling, estimate.stiffness, estimate.stiffness - half,
