@@ -289,7 +289,8 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     if not np.all(np.isfinite(estimate.stiffness)):
         raise TrialError(where, f"the {protocol.discretisation} observer diverged with gain "
                                 f"{derived.observer_gain:.3g} (use the exact discretisation or a lower gain)")
-    observable = band_informed(estimate.variance, observable)
+    if estimate.steps is not None:                # a posterior variance (the observers' is a spread of ratios)
+        observable = band_informed(estimate.variance, observable)
     z = float(stats.norm.ppf(0.5 + protocol.ci_level / 2))
     half = z * np.sqrt(np.maximum(estimate.variance_with(None if ident is None else ident.covariance), 0.0))
     stiffness, lo, hi = _limb_stiffness(coupling, estimate.stiffness, estimate.stiffness - half,
