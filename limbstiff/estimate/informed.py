@@ -5,11 +5,13 @@ Two criteria, both needed:
 * motion (:func:`~limbstiff.estimate.observer.informed`): by the observer's forgetting, (8), the
   estimate rests on motion within a window of a few motion periods;
 * the band (:func:`band_informed`): the Kalman model's posterior variance there is not many
-  times its typical value (the observers' variance is the spread of their ratios, not a measure of
-  information, and is not judged so). A slow drift or tremor in a motion pause passes the first criterion, yet carries
-  a tiny share of the information (it goes with the deflection squared); the estimate there is
-  carried across the gap by the model of how the stiffness walks, which a co-contraction or an
-  actuator's new set-point in the pause does not follow.
+  times its typical value (the observers' variance is the spread of their ratios, not a measure
+  of information, and is not judged so).
+
+A slow drift or tremor in a motion pause passes the first criterion, yet carries a tiny share of
+the information (it goes with the deflection squared); the estimate there is carried across the
+gap by the model of how the stiffness walks, which a co-contraction or an actuator's new
+set-point in the pause does not follow.
 
 Where a sample is not informed, :func:`uninformed_band` widens the band to what the trial's
 informed band spans. Pure numpy: no I/O.
@@ -31,8 +33,8 @@ def band_informed(variance: np.ndarray, observable: np.ndarray, *, widening: flo
     Parameters
     ----------
     variance : ndarray, shape (n,), (N·m/rad)²
-        The Kalman model's posterior variance of the stiffness (inertia and damping taken as exact: their
-        uncertainty is the same everywhere and says nothing about local information).
+        The Kalman model's posterior variance of the stiffness (inertia and damping taken as
+        exact: their uncertainty is the same everywhere and says nothing about local information).
     observable : ndarray of bool, shape (n,)
         Informed by motion (:func:`~limbstiff.estimate.observer.informed`).
     widening : float
