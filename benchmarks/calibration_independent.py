@@ -81,11 +81,12 @@ def run(seeds, jobs: int) -> tuple[list[dict], list[dict]]:
         names = independent_trials.write_suites(seeds, Path(tmp))
         folder = Path(tmp) / "pauses"
         folder.mkdir()
-        for spec in _pause_specs():
+        specs = _pause_specs()
+        for spec in specs:
             independent_trials.write_trial(spec, folder)
         with ProcessPoolExecutor(jobs) as pool:
             rows = list(pool.map(_one, names))
-            pauses = list(pool.map(_one, [(str(folder), spec.name) for spec in _pause_specs()]))
+            pauses = list(pool.map(_one, [(str(folder), spec.name) for spec in specs]))
     return rows, pauses
 
 

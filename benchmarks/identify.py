@@ -168,7 +168,8 @@ def main(n_trials: int, jobs: int) -> str:
         lines.append(f"| {joint} | {len(sel)} | {100 * me:.2f} % | {_coverage(sel, 'inertia')} | {mp:.2f} "
                      f"| {100 * be:.2f} % | {_coverage(sel, 'damping')} | {bp:.2f} | {100 * conv:.0f} % "
                      f"| {np.mean([r['seconds'] for r in sel]):.2f} |")
-    lines += ["", "Coverage as share [95 % Wilson interval]. Targets: coverage 85–95 % per joint (≥ 200 trials each), median error of m ≤ 5 %, of b ≤ 10 %. The rank χ² p is the "
+    lines += ["", "Coverage as share [95 % Wilson interval]. Targets: coverage 85–95 % per joint (≥ 200 trials "
+              "each), median error of m ≤ 5 %, of b ≤ 10 %. The rank χ² p is the "
               "simulation-based calibration (Talts et al. 2018): the truth's rank among the posterior draws, in 10 bins, "
               "uniform when the posterior is calibrated (p below 0.01 says it is not).", "",
               "### Sensitivity as in the paper's Fig. 8 (elbow, 3 seeds, 30 s)", "",

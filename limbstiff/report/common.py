@@ -91,6 +91,13 @@ def grid(fig, nrows: int, ncols: int, **kw):
     return fig.add_gridspec(nrows, ncols, **{**frame, **kw})
 
 
+def key_value_lines(key: str, value, wrap: int) -> tuple[list[str], list[str]]:
+    """A ``key  value`` row as two columns of lines: the value wrapped at ``wrap`` characters, the key
+    on its first line and blanks beside the rest."""
+    wrapped = textwrap.wrap(str(value), wrap) or [""]
+    return [key] + [""] * (len(wrapped) - 1), wrapped
+
+
 def text_panel(ax, lines: Sequence[tuple[str, str]] | str, *, title: str | None = None,
                fontsize: float = FONT["body"], key_width: float = 0.42, wrap: int = 60):
     """Turn an axes into a panel of text, from its top: a message, or ``key  value`` rows.
@@ -135,9 +142,9 @@ def text_panel(ax, lines: Sequence[tuple[str, str]] | str, *, title: str | None 
         # its own, and one per cell made the panels' texts most of a report's text
         keys, values = [], []
         for key, value in lines:
-            wrapped = textwrap.wrap(str(value), wrap) or [""]
-            keys += [key] + [""] * (len(wrapped) - 1)
-            values += wrapped
+            key_lines, value_lines = key_value_lines(key, value, wrap)
+            keys += key_lines
+            values += value_lines
         for x, column, weight in ((0, keys, "bold"), (key_width, values, "normal")):
             tr, xy = at(x, down)
             ax.text(*xy, "\n".join(column), transform=tr, fontsize=fontsize, weight=weight, va="top",

@@ -16,7 +16,7 @@ import numpy as np
 from ..digest import headline_rows, recording_rows, verdict_line
 from ..result import REFERENCE_SKIP_S
 from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, ROW_SPACING, envelope, envelope_band, fmt, grid,
-                     new_page, robust_limits, shade_false, text_panel)
+                     key_value_lines, new_page, robust_limits, shade_false, text_panel)
 from .plots import names, plot_relation, plot_stiffness, recorded_torque
 
 
@@ -64,12 +64,12 @@ def _key_values(fig, rows: list[tuple[str, str]], y: float, *, fontsize: float, 
         y -= 0.026
     labels, texts, more = [], [], 0
     for k, (label, value) in enumerate(rows):
-        wrapped = textwrap.wrap(str(value), wrap) or [""]
-        if y - line * (len(texts) + len(wrapped) + (k < len(rows) - 1)) < floor:
+        label_lines, value_lines = key_value_lines(label, value, wrap)
+        if y - line * (len(texts) + len(value_lines) + (k < len(rows) - 1)) < floor:
             more = len(rows) - k
             break
-        labels += [label] + [""] * (len(wrapped) - 1)
-        texts += wrapped
+        labels += label_lines
+        texts += value_lines
     for x, column, weight in ((0.06, labels, "bold"), (0.3, texts, "normal")):
         fig.text(x, y, "\n".join(column), fontsize=fontsize, weight=weight, va="top", linespacing=ROW_SPACING)
     y -= line * len(texts)
