@@ -97,7 +97,7 @@ def test_a_pause_the_independent_simulator_drifts_through_is_not_informed(tmp_pa
     ``benchmarks/independent_trials.py``, written without limbstiff's code): the limb drifts at
     about 3 % of its speed in the pause, far above the velocity noise, so the motion criterion
     alone counts the pause as informed, and there the model's band held the truth in 20 % of the
-    samples (measured on the band more than three times its typical width) (the stiffness swings 27 → 13 → 24 N·m/rad across the gap). Its band is over three
+    samples (the stiffness swings 27 → 13 → 24 N·m/rad across the gap). Its band is over three
     times its typical width, so the pause is not informed; the band over the informed samples
     after 2 s then holds the truth in 96 % of them (88 % before). Bounds: the 90 % band's
     coverage on one trial, between 85 % (below: too narrow) and 99 % (above: no longer a 90 % band)."""

@@ -46,9 +46,23 @@ def test_summary_says_inertia_is_in_the_expected_range(results, name):
 
 
 @pytest.mark.parametrize("name", ["z_df", "z_df2", "z_df3"])
-def test_trials_the_model_fits_are_ok(results, name):
-    # the issue: a check that cries wolf is as bad as none
-    assert results[name].verdict == "ok", results[name].checks.reasons
+def test_trials_the_model_fits_pass_every_check_but_the_angle_dependence(results, name):
+    # the issue: a check that cries wolf is as bad as none. The dorsiflexor trials' stiffness
+    # matches SOURCE.md; what the model misses there is only that the stiffness changes with the
+    # angle within the perturbation (the angle_dependence check, below)
+    failed = {c.name for c in results[name].checks.failed}
+    assert failed <= {"angle_dependence"}, results[name].checks.reasons
+    assert results[name].verdict == ("caution" if failed else "ok")
+
+
+def test_the_angle_dependence_of_z_df_is_flagged_and_z_df3_is_not(results):
+    # measured: z_df's stiffness is about 11 % lower at the perturbation's extremes than at its
+    # centre (Wald 34, 4.3 band half-widths: muscle yielding beyond its short-range stiffness, or
+    # the reflex answering stretch one way); z_df3 shows none (Wald 1.0, 0.1 half-widths)
+    assert not results["z_df"].checks["angle_dependence"].passed
+    assert results["z_df"].checks["angle_dependence"].value > 2.0
+    assert results["z_df3"].checks["angle_dependence"].passed
+    assert results["z_df3"].verdict == "ok"
 
 
 def test_z_pf_is_flagged_with_its_reason(results):

@@ -10,7 +10,7 @@ from ..estimate.observer import informed_samples
 from ..filtered import Filtered
 from ..mechanics.identification import Identification
 from . import model
-from .verdict import (AGREEMENT_MAX, BAND_WIDTH_MAX, BAND_ZERO_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION,
+from .verdict import (AGREEMENT_MAX, ANGLE_VARIATION_MAX, ANGLE_WALD, BAND_WIDTH_MAX, BAND_ZERO_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION,
                       HELDOUT_UNRELIABLE, NEGATIVE_SHARE_MAX, NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE,
                       VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks, check_at_least, check_at_most,
                       finite_or_none)
@@ -129,6 +129,31 @@ def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
     ]
 
 
+def _angle_dependence(found: model.AngleDependence | None, stiffness, lo, hi, observable) -> Check:
+    """Caution when the stiffness changes with the angle within the cycle, significantly (the Wald
+    statistic beyond :data:`ANGLE_WALD`) and by more than the band's half-width."""
+    if found is None:
+        return Check("angle_dependence", None, ANGLE_VARIATION_MAX, True, "too few model steps to judge")
+    informed = informed_samples(observable)
+    half = float(np.median((hi - lo)[informed])) / 2
+    ratio = found.variation / half if half > 0 else np.inf
+    percent = 100 * found.variation / max(abs(float(np.median(stiffness[informed]))), 1e-300)
+    if found.wald <= ANGLE_WALD:
+        return Check("angle_dependence", finite_or_none(ratio), ANGLE_VARIATION_MAX, True,
+                     f"no change of the stiffness with the angle within the motion cycle that the data tell from "
+                     f"noise (χ² = {found.wald:.1f}, 2 degrees of freedom)")
+    if ratio <= ANGLE_VARIATION_MAX:
+        return Check("angle_dependence", finite_or_none(ratio), ANGLE_VARIATION_MAX, True,
+                     f"the stiffness changes with the angle within the motion cycle by about ±{percent:.1f} %, "
+                     "less than its band's half-width")
+    return Check("angle_dependence", finite_or_none(ratio), ANGLE_VARIATION_MAX, False,
+                 f"the stiffness changes with the angle within each motion cycle, by about ±{percent:.0f} % "
+                 f"({ratio:.1f} times the band's half-width: a spring stiffening with the deflection, muscle "
+                 "yielding at larger stretches, or torque answering stretch in one direction only, as a reflex "
+                 "does): the course shown is its average over the cycle, and the band and the trial-level "
+                 "intervals do not hold the stiffness at the cycle's extremes", CAUTION)
+
+
 def _noise_levels(margins: np.ndarray, negligible: bool, share: float) -> Check:
     if negligible:
         return _negligible("noise_levels_at_bounds", float(min(margins[0], *margins[2:])), BOUND_MARGIN, share)
@@ -221,6 +246,8 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
     negligible = share < NEGLIGIBLE_RESIDUAL and heldout is not None and heldout >= NEGLIGIBLE_HELDOUT
     checks = [_heldout(heldout), *_innovations(model.innovation_statistics(filtered, **kw), negligible, share),
               *_stiffness_course(stiffness, lo, hi, observable),
+              _angle_dependence(model.angle_dependence(filtered, **kw, informed=observable), stiffness, lo, hi,
+                                observable),
               _noise_levels(model.bound_margins(filtered, **kw), negligible, share), _agreement(ident),
               _inertia_range(ident),
               torque_sign(filtered, inertia=m, damping=b), _coupling(coupling, corrected)]
