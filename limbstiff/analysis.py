@@ -18,8 +18,10 @@ from . import bandwidth
 from .coupling import MAX_CORRECTION, CouplingFit, detect_coupling
 from .checks import check_analysis
 from .checks.analysis import sign_hint
+from .checks.model import MIN_STEPS
 from .errors import TrialError
 from .estimate import estimators, observer
+from .estimate.angle_terms import AngleTerms, fit_angle_terms
 from .estimate.course_draws import course_deviations
 from .estimate.informed import band_informed, uninformed_band
 from .estimate.kalman import NoiseLevels, step_index
@@ -168,10 +170,14 @@ def figure_samples_of(filtered: Filtered, observable: np.ndarray) -> FigureSampl
 
 
 def _trial_level(filtered: Filtered, estimate: estimators.Estimate, ident: Identification | None,
-                 observable: np.ndarray, *, limb, level: float, seed: int) -> TrialLevel:
+                 observable: np.ndarray, *, limb, level: float, seed: int,
+                 angle: AngleTerms | None = None) -> TrialLevel:
     """The trial-level figures over joint draws of the course at the Kalman model's steps (its
     posterior, :func:`course_deviations`, plus posterior draws of m and b through the estimate's
-    sensitivity), on the informed steps; ``limb`` maps a one-body stiffness to the limb's."""
+    sensitivity), on the informed steps; ``limb`` maps a one-body stiffness to the limb's. With
+    ``angle`` the course is the stiffness with its change with the angle within the cycle: the
+    part the smoothed course misses (:meth:`AngleTerms.missed_course`) added, its coefficients
+    drawn from their sandwich covariance."""
     samples = figure_samples_of(filtered, observable)
     rng = np.random.default_rng([seed, 14])
     n_draws = course_draws_for(len(samples.index) if estimate.steps is None else len(estimate.steps.index))
@@ -181,6 +187,11 @@ def _trial_level(filtered: Filtered, estimate: estimators.Estimate, ident: Ident
         draws += course_deviations(estimate.steps, estimate.fit.noise, draws=n_draws, rng=rng,
                                    columns=samples.columns)
         sources.append("course")
+    if angle is not None:
+        missed = angle.missed[:, samples.columns]
+        base = base + angle.coefficients @ missed
+        draws += rng.multivariate_normal(angle.coefficients, angle.covariance, n_draws) @ missed
+        sources.append("angle")
     if ident is not None and ident.posterior is not None and estimate.sensitivity is not None:
         mech = ident.posterior.mechanics[rng.integers(0, len(ident.posterior.mechanics), n_draws)]
         draws += (mech - [ident.inertia.median, ident.damping.median]) @ estimate.sensitivity[:, samples.index]
@@ -297,11 +308,13 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
                                         estimate.stiffness + half)
     lo, hi = uninformed_band(lo, hi, observable)
     corrected = stiffness is not estimate.stiffness
+    angle = (fit_angle_terms(estimate.steps, estimate.fit.noise, motion_frequency=filtered.motion_hz)
+             if estimate.steps is not None and len(estimate.steps.index) >= MIN_STEPS else None)
     figures = _trial_level(filtered, estimate, ident, observable, level=protocol.ci_level, seed=seed,
-                           limb=coupling.limb_stiffness if corrected else (lambda x: x))
+                           limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle)
     checks = check_analysis(filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=_check_noise(filtered, estimate, ident), coupling=coupling,
-                            corrected=corrected)
+                            corrected=corrected, angle_terms=angle)
     return StiffnessResult(
         trial=trial, variant=filtered.variant, estimator=protocol.estimator, stiffness=stiffness,
         stiffness_lo=lo, stiffness_hi=hi, observable=observable,

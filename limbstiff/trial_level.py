@@ -9,7 +9,9 @@
 Each interval is the central interval of the figure over joint draws of the course (the
 Kalman smoother's joint posterior, :mod:`limbstiff.estimate.course_draws`, plus draws of inertia
 and damping carried through the estimate's sensitivity): not the median of the per-sample band's
-limits, which is no interval of anything. Pure numpy: no I/O.
+limits, which is no interval of anything. With the Kalman estimator the course is the stiffness
+with its change with the angle within the motion cycle, which the smoothed course averages away
+(:mod:`limbstiff.estimate.angle_terms`), its coefficients drawn too. Pure numpy: no I/O.
 """
 
 from __future__ import annotations
@@ -48,7 +50,8 @@ def figure_columns(steps: int) -> np.ndarray:
 FIGURES = ("median_stiffness", "stiffness_at_mean_torque", "stiffness_torque_slope")
 #: What each figure is, in words for the report and the JSON.
 WORDS = {
-    "median_stiffness": "median of the stiffness over the samples informed by motion",
+    "median_stiffness": "median of the stiffness (with its change with the angle within the motion cycle) over the "
+                        "samples informed by motion",
     "stiffness_at_mean_torque": "stiffness on the straight line of stiffness against background torque, at the "
                                 "trial's mean background torque",
     "stiffness_torque_slope": "slope of that line: change of stiffness per unit of background torque",
@@ -69,7 +72,9 @@ class TrialLevel:
     draws : int
         Course draws the intervals come from.
     sources : tuple of str
-        What the draws vary: ``"course"`` (the smoother's joint posterior), ``"mechanics"`` (m, b).
+        What the draws vary: ``"course"`` (the smoother's joint posterior), ``"angle"`` (the
+        stiffness's change with the angle within the cycle, :mod:`limbstiff.estimate.angle_terms`),
+        ``"mechanics"`` (m, b).
     """
 
     median_stiffness: Interval

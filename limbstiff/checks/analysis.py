@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..coupling import ADEQUATE_CHI2, CouplingFit
+from ..estimate.angle_terms import AngleTerms
 from ..estimate.kalman import NoiseLevels
 from ..estimate.observer import informed_samples
 from ..filtered import Filtered
@@ -129,15 +130,16 @@ def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
     ]
 
 
-def _angle_dependence(found: model.AngleDependence | None, stiffness, lo, hi, observable) -> Check:
+def _angle_dependence(found: AngleTerms | None, stiffness, lo, hi, observable) -> Check:
     """Caution when the stiffness changes with the angle within the cycle, significantly (the Wald
     statistic beyond :data:`ANGLE_WALD`) and by more than the band's half-width."""
     if found is None:
         return Check("angle_dependence", None, ANGLE_VARIATION_MAX, True, "too few model steps to judge")
     informed = informed_samples(observable)
     half = float(np.median((hi - lo)[informed])) / 2
-    ratio = found.variation / half if half > 0 else np.inf
-    percent = 100 * found.variation / max(abs(float(np.median(stiffness[informed]))), 1e-300)
+    variation = found.variation(informed)
+    ratio = variation / half if half > 0 else np.inf
+    percent = 100 * variation / max(abs(float(np.median(stiffness[informed]))), 1e-300)
     if found.wald <= ANGLE_WALD:
         return Check("angle_dependence", finite_or_none(ratio), ANGLE_VARIATION_MAX, True,
                      f"no change of the stiffness with the angle within the motion cycle that the data tell from "
@@ -214,7 +216,8 @@ def _coupling(coupling: CouplingFit | None, corrected: bool) -> Check | None:
 
 def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                    observable: np.ndarray, ident: Identification | None, noise: NoiseLevels,
-                   coupling: CouplingFit | None = None, corrected: bool = False) -> ModelChecks:
+                   coupling: CouplingFit | None = None, corrected: bool = False,
+                   angle_terms: AngleTerms | None = None) -> ModelChecks:
     """Every check of one analysis.
 
     Parameters
@@ -231,6 +234,9 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
         A coupling between limb and device, when one was looked for.
     corrected : bool
         Whether ``stiffness`` is the limb's with the coupling's series springs undone.
+    angle_terms : AngleTerms, optional
+        The angle terms already fitted on the same model (:mod:`limbstiff.estimate.angle_terms`);
+        fitted here when not given.
 
     Returns
     -------
@@ -246,8 +252,7 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
     negligible = share < NEGLIGIBLE_RESIDUAL and heldout is not None and heldout >= NEGLIGIBLE_HELDOUT
     checks = [_heldout(heldout), *_innovations(model.innovation_statistics(filtered, **kw), negligible, share),
               *_stiffness_course(stiffness, lo, hi, observable),
-              _angle_dependence(model.angle_dependence(filtered, **kw, informed=observable), stiffness, lo, hi,
-                                observable),
+              _angle_dependence(angle_terms or model.angle_terms(filtered, **kw), stiffness, lo, hi, observable),
               _noise_levels(model.bound_margins(filtered, **kw), negligible, share), _agreement(ident),
               _inertia_range(ident),
               torque_sign(filtered, inertia=m, damping=b), _coupling(coupling, corrected)]

@@ -7,7 +7,7 @@
   unrelated to the motion when the model is right;
 * :func:`elastic_slopes`: the local slope of a torque on the angle, window by window, for the
   sign of the recorded torque;
-* :func:`angle_dependence`: a stiffness that changes with the angle within each motion cycle,
+* :func:`angle_terms`: a stiffness that changes with the angle within each motion cycle,
   which the model's random walk, slow beside the motion, averages over the cycle.
 
 Pure numpy: no I/O.
@@ -21,10 +21,10 @@ import numpy as np
 
 from ..estimate import kernels
 from ..estimate.estimators import kalman_decimation
-from ..estimate.kalman import ModelSteps, NoiseLevels, at_steps, initial_slopes, kalman_smoother, model_steps
+from ..estimate.angle_terms import AngleTerms, fit_angle_terms
+from ..estimate.kalman import ModelSteps, NoiseLevels, kalman_smoother, model_steps
 from ..estimate.noise_search import noise_bounds
 from ..filtered import Filtered
-from ..mechanics.likelihood import LONG_RUN_PERIODS, long_run_covariance
 
 #: Held-out blocks are this many periods of the typical motion long: whole periods, so that a
 #: block holds the excursions that reveal the stiffness, not a fragment the neighbours explain.
@@ -182,96 +182,14 @@ def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
                                 velocity_correlation=max(map(abs, xcorr), default=0.0))
 
 
-@dataclass(frozen=True)
-class AngleDependence:
-    """A stiffness that changes with the angle within the motion cycle, fitted to the model's residual.
-
-    Parameters
-    ----------
-    coefficients : ndarray, shape (2,)
-        β₁ (N·m/rad²) and β₂ (N·m/rad³) of σ(t, g) = σ₀(t) + β₁·g + β₂·(g² − mean g²), g the
-        deflection (the angle less its moving average, :func:`~limbstiff.estimate.kalman.deflection`).
-    wald : float
-        β̂ᵀ·C⁻¹·β̂ with C the sandwich covariance (long-run covariance of the scores): χ² with 2
-        degrees of freedom when the stiffness does not depend on the angle.
-    variation : float, N·m/rad
-        Root mean square over the informed steps of what the smoothed course misses of the fitted
-        term β₁·g + β₂·(g² − mean g²): the term less the course's own response to its torque.
-    """
-
-    coefficients: np.ndarray
-    wald: float
-    variation: float
-
-
-def angle_regressors(steps: ModelSteps) -> tuple[np.ndarray, np.ndarray]:
-    """The torque a stiffness term β₁·g + β₂·(g² − c) adds, per unit β, and the term itself.
-
-    With ds = σ·dy that torque is Σ β·h(g)·Δy over the steps (h at each step's middle), so that
-    z − β·U obeys the model without the term (c = mean g² keeps the cycle average in σ₀).
-
-    Returns
-    -------
-    U : ndarray, shape (2, m)
-        Σ g·Δy and Σ (g² − c)·Δy, rad² and rad³.
-    H : ndarray, shape (2, m)
-        g and g² − c at the steps, rad and rad².
-    """
-    g = steps.deflection
-    middle = np.concatenate([g[:1], 0.5 * (g[1:] + g[:-1])])
-    c = float(np.mean(g ** 2))
-    d = np.concatenate([[0.0], steps.increments[1:]])
-    h_mid = np.vstack([middle, middle ** 2 - c])
-    return np.cumsum(h_mid * d, axis=1), np.vstack([g, g ** 2 - c])
-
-
-def angle_dependence(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels,
-                     informed: np.ndarray) -> AngleDependence | None:
-    """Whether the stiffness changes with the angle within the motion cycle, and by how much.
-
-    The model's stiffness walks slowly beside the motion (its noise bounds, :mod:`noise_search`),
-    so a stiffness that rises and falls with every excursion — a spring stiffening with the
-    deflection, muscle yielding beyond its short-range stiffness — is averaged over the cycle.
-    Such a term leaves in the one-step prediction errors the filtered image of Σ β·h(g)·Δy
-    (:func:`angle_regressors`). Since the filter is linear in the data, β follows by generalised
-    least squares on the standardised innovations of z and of the two regressors, all from one
-    filter pass (:func:`~limbstiff.estimate.kernels.kalman_channel_innovations`); its covariance is
-    the sandwich with the long-run covariance of the scores over :data:`LONG_RUN_PERIODS` motion
-    periods, as the identification's (correlated residuals do not make it significant).
-
-    Parameters
-    ----------
-    informed : ndarray of bool, shape (n,)
-        The samples informed by motion (where the variation is measured).
-
-    Returns
-    -------
-    AngleDependence or None
-        None on fewer than :data:`MIN_STEPS` steps.
-    """
+def angle_terms(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> AngleTerms | None:
+    """The stiffness's change with the angle within the motion cycle
+    (:func:`~limbstiff.estimate.angle_terms.fit_angle_terms`) on the model at m, b and ``noise``;
+    None on fewer than :data:`MIN_STEPS` steps."""
     st = _steps(filtered, inertia, damping)
     if len(st.index) < MIN_STEPS:
         return None
-    U, H = angle_regressors(st)
-    channels = np.ascontiguousarray(np.vstack([st.measured, U]))
-    slopes = np.concatenate([[st.initial_mean[1]], initial_slopes(st.angle, U)])
-    e, s = kernels.kalman_channel_innovations(st.increments, st.deflection, channels, slopes,
-                                              *noise.per_step(st.step), st.initial_cov[0], st.initial_cov[2],
-                                              np.zeros(len(st.index), dtype=bool))
-    e = e / np.sqrt(s)
-    x, eps = e[1:].T, e[0]
-    h_inv = np.linalg.inv(x.T @ x)
-    beta = h_inv @ (x.T @ eps)
-    lags = int(np.ceil(LONG_RUN_PERIODS / (filtered.motion_hz * st.step)))
-    sandwich = h_inv @ long_run_covariance(x * (eps - x @ beta)[:, None], lags) @ h_inv
-    # what the estimate misses: the term less the smoothed course's own response to its torque
-    # (the smoother is linear in z; a stiffness walk that follows the angle already has it)
-    followed = np.vstack([at_steps(kalman_smoother(st.increments, u, noise, step=st.step, deflection=st.deflection,
-                                                   initial_mean=(float(u[0]), float(k)), initial_cov=st.initial_cov,
-                                                   loglik=False).mean[:, 1]) for u, k in zip(U, slopes[1:])])
-    missed = (beta @ (H - followed))[informed[st.index]]
-    return AngleDependence(coefficients=beta, wald=float(beta @ np.linalg.solve(sandwich, beta)),
-                           variation=float(np.sqrt(np.mean(missed ** 2))) if missed.size else 0.0)
+    return fit_angle_terms(st, noise, motion_frequency=filtered.motion_hz)
 
 
 def dynamic_variance(filtered: Filtered) -> float:

@@ -1,0 +1,122 @@
+"""A stiffness that changes with the angle within the motion cycle, fitted to the Kalman model's residual.
+
+The model's stiffness walks slowly beside the motion (the noise bounds of
+:mod:`limbstiff.estimate.noise_search`), so a stiffness that rises and falls with every excursion —
+a spring stiffening with the deflection, muscle yielding beyond its short-range stiffness, a
+reflex answering stretch one way — is averaged over the cycle. Written as
+
+    σ(t, g) = σ₀(t) + β₁·g + β₂·(g² − mean g²),     g the deflection (:func:`kalman.deflection`),
+
+the term adds to the torque left to the elastic element Σ β·h(g)·Δy over the steps
+(ds = σ·dy). The filter is linear in the data, so β follows by generalised least squares of the
+standardised innovations of z on those of the two regressors, all from one filter pass
+(:func:`~limbstiff.estimate.kernels.kalman_channel_innovations`), with the sandwich covariance
+over :data:`~limbstiff.mechanics.likelihood.LONG_RUN_PERIODS` motion periods (as the
+identification's: correlated residuals do not make β significant). Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import kernels
+from .kalman import ModelSteps, NoiseLevels, at_steps, initial_slopes, kalman_smoother
+
+
+@dataclass(frozen=True)
+class AngleTerms:
+    """The fitted angle terms and what the smoothed course misses of them.
+
+    Parameters
+    ----------
+    coefficients : ndarray, shape (2,)
+        β₁ (N·m/rad²) and β₂ (N·m/rad³).
+    covariance : ndarray, shape (2, 2)
+        Their sandwich covariance.
+    wald : float
+        β̂ᵀ·C⁻¹·β̂: χ² with 2 degrees of freedom when the stiffness does not depend on the angle.
+    missed : ndarray, shape (2, m)
+        Per unit β, the term h(g) = (g, g² − mean g²) less the smoothed course's own response to
+        its torque, at the model's steps (aligned as the estimate, :func:`kalman.at_steps`): what
+        the course lacks. A stiffness walk that follows the angle already has the term (missed ≈ 0).
+    index : ndarray of int, shape (m,)
+        The sample of each step.
+    """
+
+    coefficients: np.ndarray
+    covariance: np.ndarray
+    wald: float
+    missed: np.ndarray
+    index: np.ndarray
+
+    def missed_course(self) -> np.ndarray:
+        """β̂·missed: what the course lacks at each step, N·m/rad (N/m), shape (m,)."""
+        return self.coefficients @ self.missed
+
+    def variation(self, informed: np.ndarray) -> float:
+        """Root mean square of :meth:`missed_course` over the steps at the samples ``informed``
+        (boolean, shape (n,) of the trial's samples), N·m/rad (N/m)."""
+        missed = self.missed_course()[informed[self.index]]
+        return float(np.sqrt(np.mean(missed ** 2))) if missed.size else 0.0
+
+
+def angle_regressors(steps: ModelSteps) -> tuple[np.ndarray, np.ndarray]:
+    """The torque a term β₁·g + β₂·(g² − c) adds, per unit β, and the term itself.
+
+    With ds = σ·dy that torque is Σ β·h(g)·Δy over the steps (h at each step's middle), so that
+    z − β·U obeys the model without the term (c = mean g² keeps the cycle average in σ₀).
+
+    Returns
+    -------
+    U : ndarray, shape (2, m)
+        Σ g·Δy and Σ (g² − c)·Δy, rad² and rad³ (m² and m³).
+    H : ndarray, shape (2, m)
+        g and g² − c at the steps, rad and rad² (m and m²).
+    """
+    g = steps.deflection
+    middle = np.concatenate([g[:1], 0.5 * (g[1:] + g[:-1])])
+    c = float(np.mean(g ** 2))
+    d = np.concatenate([[0.0], steps.increments[1:]])
+    return np.cumsum(np.vstack([middle, middle ** 2 - c]) * d, axis=1), np.vstack([g, g ** 2 - c])
+
+
+def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float) -> AngleTerms:
+    """The angle terms of a trial's Kalman model (module docstring).
+
+    Parameters
+    ----------
+    steps : ModelSteps
+        The model's data (z at the analysis's m and b).
+    noise : NoiseLevels
+        The model's noise levels.
+    motion_frequency : float, Hz
+        Sets the lags of the long-run covariance.
+
+    Returns
+    -------
+    AngleTerms
+    """
+    from ..mechanics.likelihood import LONG_RUN_PERIODS, long_run_covariance
+
+    U, H = angle_regressors(steps)
+    slopes = initial_slopes(steps.angle, U)
+    e, s = kernels.kalman_channel_innovations(steps.increments, steps.deflection,
+                                              np.ascontiguousarray(np.vstack([steps.measured, U])),
+                                              np.concatenate([[steps.initial_mean[1]], slopes]),
+                                              *noise.per_step(steps.step), steps.initial_cov[0], steps.initial_cov[2],
+                                              np.zeros(len(steps.measured), dtype=bool))
+    e = e / np.sqrt(s)
+    x, eps = e[1:].T, e[0]
+    h_inv = np.linalg.inv(x.T @ x)
+    beta = h_inv @ (x.T @ eps)
+    lags = int(np.ceil(LONG_RUN_PERIODS / (motion_frequency * steps.step)))
+    sandwich = h_inv @ long_run_covariance(x * (eps - x @ beta)[:, None], lags) @ h_inv
+    # the smoother is linear in z: its course from z − β·U is its course from z less β times these
+    followed = np.vstack([at_steps(kalman_smoother(steps.increments, u, noise, step=steps.step,
+                                                   deflection=steps.deflection, initial_mean=(float(u[0]), float(k)),
+                                                   initial_cov=steps.initial_cov, loglik=False).mean[:, 1])
+                          for u, k in zip(U, slopes)])
+    return AngleTerms(coefficients=beta, covariance=sandwich, wald=float(beta @ np.linalg.solve(sandwich, beta)),
+                      missed=H - followed, index=steps.index)
