@@ -11,7 +11,7 @@ from ..estimate.observer import informed_samples
 from ..filtered import Filtered
 from ..mechanics.identification import Identification
 from . import model
-from .verdict import (AGREEMENT_MAX, ANGLE_VARIATION_MAX, ANGLE_WALD, BAND_WIDTH_MAX, BAND_ZERO_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION,
+from .verdict import (AGREEMENT_MAX, ANGLE_CHANGE_MIN, ANGLE_VARIATION_MAX, ANGLE_WALD, BAND_WIDTH_MAX, BAND_ZERO_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION,
                       HELDOUT_UNRELIABLE, NEGATIVE_SHARE_MAX, NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE,
                       VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks, check_at_least, check_at_most,
                       finite_or_none)
@@ -132,7 +132,8 @@ def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
 
 def _angle_dependence(found: AngleTerms | None, stiffness, lo, hi, observable) -> Check:
     """Caution when the stiffness changes with the angle within the cycle, significantly (the Wald
-    statistic beyond :data:`ANGLE_WALD`) and by more than the band's half-width."""
+    statistic beyond :data:`ANGLE_WALD`), by more than the band's half-width and by at least
+    :data:`ANGLE_CHANGE_MIN` of the stiffness."""
     if found is None:
         return Check("angle_dependence", None, ANGLE_VARIATION_MAX, True, "too few model steps to judge")
     informed = informed_samples(observable)
@@ -144,10 +145,11 @@ def _angle_dependence(found: AngleTerms | None, stiffness, lo, hi, observable) -
         return Check("angle_dependence", finite_or_none(ratio), ANGLE_VARIATION_MAX, True,
                      f"no change of the stiffness with the angle within the motion cycle that the data tell from "
                      f"noise (χ² = {found.wald:.1f}, 2 degrees of freedom)")
-    if ratio <= ANGLE_VARIATION_MAX:
+    if ratio <= ANGLE_VARIATION_MAX or percent < 100 * ANGLE_CHANGE_MIN:
         return Check("angle_dependence", finite_or_none(ratio), ANGLE_VARIATION_MAX, True,
-                     f"the stiffness changes with the angle within the motion cycle by about ±{percent:.1f} %, "
-                     "less than its band's half-width")
+                     f"the stiffness changes with the angle within the motion cycle by about ±{percent:.2g} %, "
+                     + ("less than its band's half-width" if ratio <= ANGLE_VARIATION_MAX else
+                        f"under {100 * ANGLE_CHANGE_MIN:.0f} % of the stiffness"))
     return Check("angle_dependence", finite_or_none(ratio), ANGLE_VARIATION_MAX, False,
                  f"the stiffness changes with the angle within each motion cycle, by about ±{percent:.0f} % "
                  f"({ratio:.1f} times the band's half-width: a spring stiffening with the deflection, muscle "
