@@ -66,16 +66,19 @@ def trial_level_inside(result):
 
 def band_cost(result) -> tuple[float, float]:
     """Seconds of one estimator pass at the fitted noise levels (the smoother whose variance is the
-    band, and the two sensitivities) and of the trial-level figures' joint draws
-    (:data:`~limbstiff.trial_level.COURSE_DRAWS` smoother passes and the m, b draws), on one trial."""
+    band, and the two sensitivities) and of the trial-level figures (the angle terms' fit, and the
+    joint draws: :data:`~limbstiff.trial_level.COURSE_DRAWS` smoother passes, the angle terms' and
+    the m, b draws), on one trial."""
     from limbstiff.analysis import _limb_stiffness, _trial_level
     from limbstiff.estimate import estimators
+    from limbstiff.estimate.angle_terms import fit_angle_terms
     m, b = result.inertia.median, result.damping.median
     t0 = time.perf_counter()
     estimate = estimators.kalman(result.filtered, inertia=m, damping=b, noise=result.fit.noise)
     t1 = time.perf_counter()
+    angle = fit_angle_terms(estimate.steps, estimate.fit.noise, motion_frequency=result.filtered.motion_hz)
     _trial_level(result.filtered, estimate, result.identification, result.observable, level=result.ci_level,
-                 seed=result.seed, limb=lambda x: _limb_stiffness(result.coupling, x, x, x)[0])
+                 seed=result.seed, limb=lambda x: _limb_stiffness(result.coupling, x, x, x)[0], angle=angle)
     return t1 - t0, time.perf_counter() - t1
 
 
@@ -127,7 +130,7 @@ def _cost_rows(costs):
     c = np.array(costs)
     ratio = np.median(c[:, 1] / c[:, 0])
     return [f"Time (kalman, {len(c)} trials, medians): one estimator pass {np.median(c[:, 0]):.3f} s, whose "
-            "smoother variance is the band at no extra cost; the trial-level figures' joint draws "
+            "smoother variance is the band at no extra cost; the trial-level figures (angle terms and joint draws) "
             f"{np.median(c[:, 1]):.3f} s = {ratio:.1f}× one pass. Target: bands ≤ 3× one pass."]
 
 
