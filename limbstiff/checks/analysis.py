@@ -12,9 +12,9 @@ from ..filtered import Filtered
 from ..mechanics.identification import Identification
 from . import model
 from .verdict import (AGREEMENT_MAX, ANGLE_CHANGE_MIN, ANGLE_VARIATION_MAX, ANGLE_WALD, BAND_WIDTH_MAX,
-                      BAND_ZERO_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE, NEGATIVE_SHARE_MAX, NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE,
-                      VELOCITY_CORRELATION_MAX, WHITENESS_MAX, Check, ModelChecks, check_at_least, check_at_most,
-                      finite_or_none)
+                      BAND_ZERO_MAX, BOUND_MARGIN, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE, NEGATIVE_SHARE_MAX,
+                      NEGLIGIBLE_HELDOUT, NEGLIGIBLE_RESIDUAL, UNRELIABLE, VELOCITY_CORRELATION_MAX, WHITENESS_MAX,
+                      Check, ModelChecks, check_at_least, check_at_most, finite_or_none)
 
 #: Windows of the sign test, in periods of the typical motion (as the identification's).
 SIGN_WINDOW_PERIODS = 4.0
