@@ -50,12 +50,13 @@ def figure_columns(steps: int) -> np.ndarray:
 FIGURES = ("median_stiffness", "stiffness_at_mean_torque", "stiffness_torque_slope")
 #: What each figure is, in words for the report and the JSON.
 WORDS = {
-    "median_stiffness": "median of the stiffness (with its change with the angle within the motion cycle) over the "
-                        "samples informed by motion",
+    "median_stiffness": "median of the stiffness over the samples informed by motion",
     "stiffness_at_mean_torque": "stiffness on the straight line of stiffness against background torque, at the "
                                 "trial's mean background torque",
     "stiffness_torque_slope": "slope of that line: change of stiffness per unit of background torque",
 }
+#: Added to each meaning when the course includes the change with the angle (source ``"angle"``).
+ANGLE_WORDS = "; the stiffness with its change with the angle within the motion cycle"
 
 
 @dataclass(frozen=True)
@@ -85,7 +86,8 @@ class TrialLevel:
     sources: tuple[str, ...]
 
     def to_dict(self) -> dict:
-        out = {name: dict(getattr(self, name).to_dict(), meaning=WORDS[name]) for name in FIGURES}
+        extra = ANGLE_WORDS if "angle" in self.sources else ""
+        out = {name: dict(getattr(self, name).to_dict(), meaning=WORDS[name] + extra) for name in FIGURES}
         out.update(ci_level=self.level, draws=self.draws, uncertainty_from=list(self.sources))
         return out
 
