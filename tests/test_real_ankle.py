@@ -5,6 +5,7 @@ z_df I 0.0166 B 1.35 K 90; z_df2 I 0.0145 B 0.79 K 54; z_df3 I 0.0138 B 1.45 K 1
 z_pf I 0.0165 B 0.65 K 69; z_pf2 I 0.0149 B 1.48 K 127.
 """
 
+import numpy as np
 import pytest
 
 from limbstiff.analysis import analyze
@@ -25,8 +26,13 @@ def results():
 
 @pytest.mark.parametrize("name", ["z_df", "z_df2", "z_df3"])
 def test_dorsiflexor_stiffness_within_30_percent(results, name):
-    summary = results[name].summary()
-    assert summary["stiffness"]["median"] == pytest.approx(REFERENCE[name][2], rel=0.30)
+    # SOURCE.md's K is one linear stiffness fitted over the whole perturbation: an average over
+    # the cycle, like the model's per-sample course (whose median is compared here, measured 112.7,
+    # 63.0, 171.4), not the trial-level median, which adds the change with the angle within the
+    # cycle (116.9 on z_df, where the stiffness is higher at the perturbation's centre)
+    result = results[name]
+    informed = result.observable
+    assert float(np.median(result.stiffness[informed])) == pytest.approx(REFERENCE[name][2], rel=0.30)
 
 
 @pytest.mark.parametrize("name", list(REFERENCE))

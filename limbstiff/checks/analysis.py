@@ -154,8 +154,9 @@ def _angle_dependence(found: AngleTerms | None, stiffness, lo, hi, observable) -
                  f"the stiffness changes with the angle within each motion cycle, by about ±{percent:.0f} % "
                  f"({ratio:.1f} times the band's half-width: a spring stiffening with the deflection, muscle "
                  "yielding at larger stretches, or torque answering stretch in one direction only, as a reflex "
-                 "does): the course shown is its average over the cycle, and the band and the trial-level "
-                 "intervals do not hold the stiffness at the cycle's extremes", CAUTION)
+                 "does): the course shown is its average over the cycle, and its band does not hold the "
+                 "stiffness at the cycle's extremes; the trial-level figures (the median stiffness among them) "
+                 "include the change, so they can differ from the course's", CAUTION)
 
 
 def _noise_levels(margins: np.ndarray, negligible: bool, share: float) -> Check:
