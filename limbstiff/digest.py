@@ -55,9 +55,12 @@ def headline_rows(result) -> list[tuple[str, str]]:
     median, low, high = result.informed_stiffness()
     level = result.trial_level
     joint = level is not None and np.isfinite(median.lo)
+    angle = joint and "angle" in level.sources and _failed(result, "angle_dependence")
     rows = [("Median stiffness", interval_text(median, u["stiffness"])
              + (f"  — {pct} interval of the median over the informed samples" if joint else
-                f"  — medians of the per-sample {pct} band (no joint uncertainty for this estimator)"))]
+                f"  — medians of the per-sample {pct} band (no joint uncertainty for this estimator)")
+             + ("; with the stiffness's change with the angle within the cycle, which the course averages"
+                if angle else ""))]
     if joint:
         slope_unit = f"({u['stiffness']})/({u['torque']})" if "torque" in u else ""
         rows += [("Stiffness at mean torque", interval_text(level.stiffness_at_mean_torque, u["stiffness"])
@@ -74,6 +77,11 @@ def headline_rows(result) -> list[tuple[str, str]]:
                                            f"{100 * err['p90']:.2f} %; the band holds it at "
                                            f"{100 * err['coverage']:.0f} % of the samples"))
     return rows
+
+
+def _failed(result, name: str) -> bool:
+    """Whether the check ``name`` ran and failed."""
+    return result.checks is not None and any(c.name == name for c in result.checks.failed)
 
 
 def mechanics_text(result, name: str) -> str:
