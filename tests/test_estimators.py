@@ -246,3 +246,14 @@ def test_angle_terms_recover_a_known_angle_dependence():
             assert fit.variation(np.ones(len(y), bool)) == pytest.approx(np.sqrt(np.mean((beta @ H) ** 2)), rel=0.1)
         else:
             assert fit.wald < 13.8155
+
+
+def test_angle_terms_are_not_claimed_where_the_motion_cannot_tell_them_apart():
+    """A joint held still: the terms add no torque (their regressors are zero), so their
+    information matrix is singular — no fit (None), rather than a number from a singular matrix."""
+    from limbstiff.estimate.angle_terms import fit_angle_terms
+    from limbstiff.estimate.kalman import NoiseLevels, model_steps
+    y = np.full(3000, 0.2)
+    torque = 1.0 + 1e-3 * np.random.default_rng(0).standard_normal(3000)
+    steps = model_steps(y, torque, sample_period=0.01, decimation=1, edge=0, motion_frequency=1.0)
+    assert fit_angle_terms(steps, NoiseLevels(1e-6, 1e-8, 1e-6, 1e-6), motion_frequency=1.0) is None

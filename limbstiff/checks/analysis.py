@@ -135,7 +135,8 @@ def _angle_dependence(found: AngleTerms | None, stiffness, lo, hi, observable) -
     statistic beyond :data:`ANGLE_WALD`), by more than the band's half-width and by at least
     :data:`ANGLE_CHANGE_MIN` of the stiffness."""
     if found is None:
-        return Check("angle_dependence", None, ANGLE_VARIATION_MAX, True, "too few model steps to judge")
+        return Check("angle_dependence", None, ANGLE_VARIATION_MAX, True,
+                     "too few model steps, or too little motion to either side, to judge")
     informed = informed_samples(observable)
     half = float(np.median((hi - lo)[informed])) / 2
     variation = found.variation(informed)

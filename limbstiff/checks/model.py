@@ -185,7 +185,7 @@ def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
 def angle_terms(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> AngleTerms | None:
     """The stiffness's change with the angle within the motion cycle
     (:func:`~limbstiff.estimate.angle_terms.fit_angle_terms`) on the model at m, b and ``noise``;
-    None on fewer than :data:`MIN_STEPS` steps."""
+    None on fewer than :data:`MIN_STEPS` steps or when the motion cannot tell the terms apart."""
     st = _steps(filtered, inertia, damping)
     if len(st.index) < MIN_STEPS:
         return None

@@ -82,7 +82,12 @@ def angle_regressors(steps: ModelSteps) -> tuple[np.ndarray, np.ndarray]:
     return np.cumsum(np.vstack([middle, middle ** 2 - c]) * d, axis=1), np.vstack([g, g ** 2 - c])
 
 
-def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float) -> AngleTerms:
+#: Largest condition number of the terms' information and covariance matrices: beyond it the
+#: motion does not tell β₁ from β₂ (an excursion always to one side) and no fit is claimed.
+MAX_CONDITION = 1e12
+
+
+def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float) -> AngleTerms | None:
     """The angle terms of a trial's Kalman model (module docstring).
 
     Parameters
@@ -96,7 +101,8 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
 
     Returns
     -------
-    AngleTerms
+    AngleTerms or None
+        None when the motion cannot tell the terms apart (:data:`MAX_CONDITION`).
     """
     from ..mechanics.likelihood import LONG_RUN_PERIODS, long_run_covariance
 
@@ -109,10 +115,15 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
                                               np.zeros(len(steps.measured), dtype=bool))
     e = e / np.sqrt(s)
     x, eps = e[1:].T, e[0]
-    h_inv = np.linalg.inv(x.T @ x)
+    information = x.T @ x
+    if not np.all(np.isfinite(information)) or np.linalg.cond(information) > MAX_CONDITION:
+        return None                     # the motion does not tell the two terms apart (or from none)
+    h_inv = np.linalg.inv(information)
     beta = h_inv @ (x.T @ eps)
     lags = int(np.ceil(LONG_RUN_PERIODS / (motion_frequency * steps.step)))
     sandwich = h_inv @ long_run_covariance(x * (eps - x @ beta)[:, None], lags) @ h_inv
+    if np.linalg.cond(sandwich) > MAX_CONDITION:
+        return None
     # the smoother is linear in z: its course from z − β·U is its course from z less β times these
     followed = np.vstack([at_steps(kalman_smoother(steps.increments, u, noise, step=steps.step,
                                                    deflection=steps.deflection, initial_mean=(float(u[0]), float(k)),
