@@ -71,10 +71,12 @@ NEGLIGIBLE_RESIDUAL = 1e-4
 #: reflex does not (0.954–0.958, stiffness 25–56 % off), and its residual's structure then counts.
 NEGLIGIBLE_HELDOUT = 0.99
 #: Wald statistic of the angle terms (χ² with 2 degrees of freedom, sandwich covariance) above which
-#: the stiffness is taken to change with the angle within the cycle: the upper 0.1 % point, so a
-#: stiffness that does not depend on the angle is flagged in 1 trial in 1000. Not fitted to trials;
-#: measured: limbstiff's simulated limbs 0.1–5.7 (16 trials), the independent simulator's clean
-#: trials without a nonlinear spring 0.3–8.2 (20 trials), its cubic springs 98–317.
+#: the stiffness is taken to change with the angle within the cycle: the upper 0.1 % point, which a
+#: stiffness that does not depend on the angle would pass in 1 trial in 1000 were the sandwich
+#: exact. Not fitted to trials. Measured: limbstiff's simulated limbs 0.1–5.7 (the accuracy
+#: benchmark's 16 trials) but 14 on one clean 20 s ankle of the checks benchmark (the sandwich is
+#: not exact: see ANGLE_CHANGE_MIN), the independent simulator's clean trials without a nonlinear
+#: spring 0.3–8.2 (20 trials), its cubic springs 98–317.
 ANGLE_WALD = 13.8155
 #: … and the fitted variation (rms over the informed samples) must exceed this many half-widths of
 #: the band (its median), so that the band does not hold the stiffness at the cycle's extremes.
