@@ -72,11 +72,12 @@ NEGLIGIBLE_RESIDUAL = 1e-4
 NEGLIGIBLE_HELDOUT = 0.99
 #: Wald statistic of the angle terms (χ² with 2 degrees of freedom, sandwich covariance) above which
 #: the stiffness is taken to change with the angle within the cycle: the upper 0.1 % point, which a
-#: stiffness that does not depend on the angle would pass in 1 trial in 1000 were the sandwich
-#: exact. Not fitted to trials. Measured: limbstiff's simulated limbs 0.1–5.7 (the accuracy
-#: benchmark's 16 trials) but 14 on one clean 20 s ankle of the checks benchmark (the sandwich is
-#: not exact: see ANGLE_CHANGE_MIN), the independent simulator's clean trials without a nonlinear
-#: spring 0.3–8.2 (20 trials), its cubic springs 98–317.
+#: stiffness that does not depend on the angle would exceed in 1 trial in 1000 were the sandwich
+#: exact. Not fitted to trials. Measured: limbstiff's simulated limbs without an angle-dependent
+#: spring 0.1–5.7 (the accuracy benchmark's 14 such trials; its angle-dependent elbow 14 and 22),
+#: but 19 on one clean 20 s ankle of the checks benchmark (the sandwich is not exact there: see
+#: ANGLE_CHANGE_MIN); the independent simulator's constant, ramp and pause elbows 0.3–8.2 (12
+#: trials), its actuators (antagonistic nonlinear springs) 4–20, its cubic springs 98–317.
 ANGLE_WALD = 13.8155
 #: … and the fitted variation (rms over the informed samples) must exceed this many half-widths of
 #: the band (its median), so that the band does not hold the stiffness at the cycle's extremes.
@@ -85,7 +86,7 @@ ANGLE_VARIATION_MAX = 1.0
 #: … and exceed this share of the stiffness: a change within the cycle smaller than 1 % of the
 #: stiffness is below what a study of joint stiffness resolves (trial-to-trial spreads are several
 #: per cent), however narrow the band. Measured: a clean simulated ankle (band ±0.1 %) failed
-#: without it at ±0.3 % (Wald 14, 1 of its 5 seeds in the checks benchmark); the flagged trials of
+#: without it at ±0.3 % (Wald 19, 1 of its 5 seeds in the checks benchmark); the flagged trials of
 #: the independent simulator change by 5–17 %, the real ankles z_df and z_df2 by 11 % and 14 %.
 ANGLE_CHANGE_MIN = 0.01
 
