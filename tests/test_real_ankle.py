@@ -62,9 +62,10 @@ def test_trials_the_model_fits_pass_every_check_but_the_angle_dependence(results
 
 
 def test_the_angle_dependence_of_z_df_is_flagged_and_z_df3_is_not(results):
-    # measured: z_df's stiffness is about 11 % lower at the perturbation's extremes than at its
-    # centre (Wald 34, 4.3 band half-widths: muscle yielding beyond its short-range stiffness, or
-    # the reflex answering stretch one way); z_df3 shows none (Wald 1.0, 0.1 half-widths)
+    # measured: z_df's stiffness changes by ±11 % (rms) within the perturbation, lower at its
+    # extremes than at its centre (Wald 34, 4.3 band half-widths: muscle yielding beyond its
+    # short-range stiffness, or the reflex answering stretch one way); z_df3 shows none (Wald 1.0,
+    # 0.1 half-widths)
     assert not results["z_df"].checks["angle_dependence"].passed
     assert results["z_df"].checks["angle_dependence"].value > 2.0
     assert results["z_df3"].checks["angle_dependence"].passed
