@@ -71,12 +71,12 @@ def band_cost(result) -> tuple[float, float]:
     the m, b draws), on one trial."""
     from limbstiff.analysis import _limb_stiffness, _trial_level
     from limbstiff.estimate import estimators
-    from limbstiff.estimate.angle_terms import fit_angle_terms
+    from limbstiff.checks.model import angle_terms_on
     m, b = result.inertia.median, result.damping.median
     t0 = time.perf_counter()
     estimate = estimators.kalman(result.filtered, inertia=m, damping=b, noise=result.fit.noise)
     t1 = time.perf_counter()
-    angle = fit_angle_terms(estimate.steps, estimate.fit.noise, motion_frequency=result.filtered.motion_hz)
+    angle = angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=result.filtered.motion_hz)
     _trial_level(result.filtered, estimate, result.identification, result.observable, level=result.ci_level,
                  seed=result.seed, limb=lambda x: _limb_stiffness(result.coupling, x, x, x)[0], angle=angle)
     return t1 - t0, time.perf_counter() - t1

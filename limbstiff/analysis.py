@@ -18,10 +18,10 @@ from . import bandwidth
 from .coupling import MAX_CORRECTION, CouplingFit, detect_coupling
 from .checks import check_analysis
 from .checks.analysis import sign_hint
-from .checks.model import MIN_STEPS
+from .checks.model import angle_terms_on
 from .errors import TrialError
 from .estimate import estimators, observer
-from .estimate.angle_terms import AngleTerms, fit_angle_terms
+from .estimate.angle_terms import AngleTerms
 from .estimate.course_draws import course_deviations
 from .estimate.informed import band_informed, uninformed_band
 from .estimate.kalman import NoiseLevels, step_index
@@ -308,8 +308,8 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
                                         estimate.stiffness + half)
     lo, hi = uninformed_band(lo, hi, observable)
     corrected = stiffness is not estimate.stiffness
-    angle = (fit_angle_terms(estimate.steps, estimate.fit.noise, motion_frequency=filtered.motion_hz)
-             if estimate.steps is not None and len(estimate.steps.index) >= MIN_STEPS else None)
+    angle = (None if estimate.steps is None else
+             angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=filtered.motion_hz))
     figures = _trial_level(filtered, estimate, ident, observable, level=protocol.ci_level, seed=seed,
                            limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle)
     checks = check_analysis(filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,

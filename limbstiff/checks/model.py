@@ -182,14 +182,19 @@ def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
                                 velocity_correlation=max(map(abs, xcorr), default=0.0))
 
 
-def angle_terms(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> AngleTerms | None:
+def angle_terms_on(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float) -> AngleTerms | None:
     """The stiffness's change with the angle within the motion cycle
-    (:func:`~limbstiff.estimate.angle_terms.fit_angle_terms`) on the model at m, b and ``noise``;
-    None on fewer than :data:`MIN_STEPS` steps or when the motion cannot tell the terms apart."""
-    st = _steps(filtered, inertia, damping)
-    if len(st.index) < MIN_STEPS:
+    (:func:`~limbstiff.estimate.angle_terms.fit_angle_terms`) on the model's ``steps`` and ``noise``
+    (the analysis's own, with the Kalman estimator); None on fewer than :data:`MIN_STEPS` steps or
+    when the motion cannot tell the terms apart."""
+    if len(steps.index) < MIN_STEPS:
         return None
-    return fit_angle_terms(st, noise, motion_frequency=filtered.motion_hz)
+    return fit_angle_terms(steps, noise, motion_frequency=motion_frequency)
+
+
+def angle_terms(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> AngleTerms | None:
+    """:func:`angle_terms_on` the model at m, b and ``noise``."""
+    return angle_terms_on(_steps(filtered, inertia, damping), noise, motion_frequency=filtered.motion_hz)
 
 
 def dynamic_variance(filtered: Filtered) -> float:
