@@ -21,7 +21,7 @@ matplotlib = pytest.importorskip("matplotlib")
 
 from limbstiff.report import batch_figures, report_figures, write_batch_overview, write_report  # noqa: E402
 from limbstiff.report.batch import TRIALS_PER_PAGE, order_rows  # noqa: E402
-from limbstiff.report.common import MIN_FONT, TEXT_PANEL  # noqa: E402
+from limbstiff.report.common import MIN_FONT, TEXT_PANEL, page_fonts  # noqa: E402
 
 UNITS = {"stiffness": "N·m/rad", "inertia": "kg·m²", "damping": "N·m·s/rad"}
 
@@ -107,6 +107,18 @@ def test_trial_report_pages_metadata_and_data(elbow, tmp_path):
     assert len(footers) == len(figures)
     settings = (elbow.summary().get("settings_sha256") or settings_hash(elbow.settings))[:12]
     assert all(settings in f and "numpy" in f and "seed 0" in f for f in footers)
+
+
+def test_standard_fonts_where_the_text_fits_them(elbow, tmp_path):
+    """Pages whose text fits WinAnsi are written in Helvetica (not embedded: the fast path); a page
+    with another character falls back to the embedded DejaVu font rather than print "?"."""
+    assert [page_fonts(fig) for fig in report_figures(elbow)] == [{}] * 6
+    pdf = write_report(elbow, tmp_path / "latin.pdf").read_bytes()
+    assert b"/BaseFont /Helvetica" in pdf
+    greek = dataclasses.replace(elbow, trial=dataclasses.replace(elbow.trial, name="σ-голень"))
+    assert all(page_fonts(fig) == {"pdf.use14corefonts": False} for fig in report_figures(greek))  # name in every footer
+    pdf = write_report(greek, tmp_path / "greek.pdf").read_bytes()
+    assert b"/BaseFont /Helvetica" not in pdf and b"DejaVuSans" in pdf
 
 
 def test_fixed_inertia_and_damping_say_so(fixed):

@@ -8,6 +8,8 @@ inside the functions only.
 from __future__ import annotations
 
 import contextlib
+import gc
+import logging
 import textwrap
 import threading
 from pathlib import Path
@@ -37,7 +39,22 @@ _RC = {
     "xtick.labelsize": FONT["small"], "ytick.labelsize": FONT["small"],
     "legend.fontsize": FONT["small"], "figure.titlesize": FONT["heading"],
     "axes.grid": True, "grid.color": "0.9", "grid.linewidth": 0.5, "pdf.fonttype": 3,
+    # Helvetica, one of the PDF's 14 standard fonts: every viewer has it, nothing to embed, and its
+    # text is written whole (a TrueType font is laid out and tracked glyph by glyph in Python:
+    # profiled, 40 % of a trial report's time); pages with other characters: see page_fonts
+    "pdf.use14corefonts": True, "axes.unicode_minus": False,
 }
+
+#: The standard fonts' encoding (WinAnsi): a page whose text needs another character is drawn
+#: with the embedded TrueType font instead.
+CORE_ENCODING = "cp1252"
+
+
+class _WeightNotice(logging.Filter):
+    """Drops matplotlib's notice that Helvetica's metrics say "medium" where "normal" was asked."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith("findfont: Failed to find font weight")
 
 
 #: rc_context changes matplotlib's global settings: reports drawn in threads of one process (a
@@ -47,10 +64,50 @@ _STYLE_LOCK = threading.RLock()
 
 @contextlib.contextmanager
 def style():
-    """Font sizes and grid of the reports, for the figures built inside the block."""
+    """Font sizes, fonts and grid of the reports, for the figures built and drawn inside the block.
+
+    The cyclic garbage collector is paused inside the block: a report makes some 10⁵ short-lived
+    objects, and each collection they trigger walks every object of the process, which after an
+    analysis is most of the work (profiled: a fifth of a trial report's time).
+    """
     import matplotlib
+    notice = _WeightNotice()
+    log = logging.getLogger("matplotlib.font_manager")
     with _STYLE_LOCK, matplotlib.rc_context(_RC):
-        yield
+        collecting = gc.isenabled()
+        gc.disable()
+        log.addFilter(notice)
+        try:
+            yield
+        finally:
+            log.removeFilter(notice)
+            if collecting:
+                gc.enable()
+
+
+def page_fonts(fig) -> dict:
+    """rc settings for drawing ``fig``: the standard fonts when its text fits their encoding.
+
+    A line of mathtext (between ``$``) is drawn by matplotlib's own fonts in either case; tick
+    labels are formatted with ASCII minus signs (:data:`_RC`), so only set texts are looked at.
+
+    Returns
+    -------
+    dict
+        ``{"pdf.use14corefonts": False}`` when some line would otherwise print as "?".
+    """
+    from matplotlib.cbook import is_math_text
+    from matplotlib.text import Text
+    for text in fig.findobj(Text):
+        if not text.get_visible():
+            continue
+        for line in text.get_text().split("\n"):
+            if not (text.get_parse_math() and is_math_text(line)):
+                try:
+                    line.encode(CORE_ENCODING)
+                except UnicodeEncodeError:
+                    return {"pdf.use14corefonts": False}
+    return {}
 
 
 def new_page(title: str | None = None):
@@ -289,6 +346,7 @@ def write_pdf(figures: Sequence, path: str | Path, metadata: dict) -> Path:
     -------
     Path
     """
+    import matplotlib
     from matplotlib.backends.backend_pdf import PdfPages
 
     path = Path(path)
@@ -297,5 +355,6 @@ def write_pdf(figures: Sequence, path: str | Path, metadata: dict) -> Path:
     with atomic_output(path) as tmp:
         with PdfPages(tmp, metadata=info) as pdf:
             for fig in figures:
-                pdf.savefig(fig)
+                with matplotlib.rc_context(page_fonts(fig)):
+                    pdf.savefig(fig)
     return path

@@ -57,9 +57,9 @@ def _summary_page(fig, d):
     y -= 0.024
     items = [f"{t['trial']}: m = {t['inertia']:.4g} kg·m², b = {t['damping']:.4g} N·m·s/rad ({t['mechanics']}), "
              f"median stiffness {t['stiffness_median']:.4g} N·m/rad, gap {_pct(t['gap_train'], 2)} "
-             f"(noise floor ≥ {_pct(t['noise_floor'], 2)})" for t in d.trials[:12]]
+             f"(noise floor at least {_pct(t['noise_floor'], 2)})" for t in d.trials[:12]]
     items.append(f"Gap (one-step prediction error over the torque's variance): {_pct(d.gap_train, 2)} in-sample, "
-                 f"{_pct(d.gap_heldout, 2)} held out; white sensor noise alone: ≥ {_pct(d.noise_floor, 2)}")
+                 f"{_pct(d.gap_heldout, 2)} held out; white sensor noise alone: at least {_pct(d.noise_floor, 2)}")
     y = _lines(fig, y, items)
     y -= 0.01
     fig.text(0.06, y, "Diagnosis", fontsize=11, weight="bold")

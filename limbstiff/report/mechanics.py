@@ -23,7 +23,7 @@ CONTOUR_MASSES = (0.5, 0.9)
 def _prior_text(prior: Prior) -> str:
     """A prior in words."""
     if prior.distribution == "lognormal":
-        return f"lognormal, median {prior.median:.4g}, σ(log) {prior.sigma:.3g}"
+        return f"lognormal, median {prior.median:.4g}, sd of log {prior.sigma:.3g}"
     if prior.distribution == "uniform":
         return f"uniform on [{prior.low:.4g}, {prior.high:.4g}]"
     return "flat on > 0" if prior.scale is None else f"half-normal, scale {prior.scale:.4g}"
@@ -88,7 +88,7 @@ def _hist(ax, x, interval, marks, label, inside, prior: Prior):
             ax.axvline(value, color=colour, lw=1, ls=":", label=name)
         elif value is not None and np.isfinite(value):
             right = value > hi_x
-            ax.annotate(f"{name} {value:.4g} →" if right else f"← {name} {value:.4g}",
+            ax.annotate(f"{name} {value:.4g} $\\rightarrow$" if right else f"$\\leftarrow$ {name} {value:.4g}",
                         xy=(1.0 if right else 0.0, 0.55), xycoords="axes fraction", ha="right" if right else "left",
                         fontsize=FONT["small"], color=colour)
     ax.legend(loc="upper right", fontsize=FONT["small"], framealpha=0.85)
@@ -242,9 +242,9 @@ def _noise_levels(ax, draws, u) -> None:
     row, its draws' histogram about their median (the levels differ by orders of magnitude, their
     spreads do not)."""
     unit = NoiseLevels.units(u["torque"], u["stiffness"])
-    names = [f"measurement noise R [{unit['measurement']}]", f"elastic-torque walk Q_s [{unit['torque_walk']}]",
-             f"stiffness walk, free Q_σ [{unit['stiffness_walk']}]",
-             f"stiffness walk, coupled Q_c [{unit['coupled_walk']}]"]
+    names = [f"measurement noise $R$ [{unit['measurement']}]", f"elastic-torque walk $Q_s$ [{unit['torque_walk']}]",
+             f"stiffness walk, free $Q_\\sigma$ [{unit['stiffness_walk']}]",
+             f"stiffness walk, coupled $Q_c$ [{unit['coupled_walk']}]"]
     labels = []
     for k in range(min(4, draws.shape[1] - 2)):
         x = draws[:, 2 + k]
@@ -262,5 +262,5 @@ def _noise_levels(ax, draws, u) -> None:
     ax.set_yticks(range(len(labels)), labels, fontsize=FONT["small"])
     ax.set_ylim(-0.6, len(labels) - 0.4)
     ax.invert_yaxis()
-    ax.set_xlabel("ln level − its posterior median (0.69 = a factor of 2)")
+    ax.set_xlabel("ln level - its posterior median (0.69 = a factor of 2)")
     ax.set_title("Posterior of the Kalman model's noise levels", fontsize=FONT["body"], loc="left")

@@ -160,7 +160,7 @@ def reference_page(result):
     shade_false(ax1, t, result.observable)
     ax1.fill_between(*envelope_band(t, -width, width), color="C0", alpha=0.25, lw=0,
                      label=f"half-width of the {100 * result.ci_level:.0f} % band")
-    ax1.plot(*envelope(t, rel), lw=0.7, color="C3", label="(estimate − reference) / reference")
+    ax1.plot(*envelope(t, rel), lw=0.7, color="C3", label="(estimate - reference) / reference")
     ax1.axhline(0, color="k", lw=0.6)
     ax1.axvspan(t[0], t[0] + REFERENCE_SKIP_S, color="C1", alpha=0.12, lw=0, label="left out (first 2 s)")
     use = result.reference_samples()
