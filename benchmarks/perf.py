@@ -7,7 +7,7 @@
    it; and the pure-NumPy blocked scan used without numba) and the Kalman filter + RTS smoother.
 2. Bands from 2000 posterior draws ÷ one estimator pass (target ≤ 3).
 3. Full ``analyze`` of a 60 s, 1 kHz trial with identification, bands and the PDF report (target
-   ≤ 5 s on 2 cores), and the report's time ÷ the analysis's (target ≤ 0.4; median of 3 runs,
+   ≤ 5 s on 2 cores), and the report's time ÷ the analysis's (target ≤ 0.4; median of 5 runs,
    in one process with matplotlib already imported).
 4. ``analyze`` time against trial length, 10 s to 1 hour, and the fitted exponent (linear: 1).
 5. Peak memory of reading and analysing a one-hour 1 kHz trial (3.6 million samples) with
@@ -125,7 +125,7 @@ def analyze_and_report(trial, pdf: bool, folder: Path) -> tuple[float, float]:
     return t1 - t0, time.perf_counter() - t1
 
 
-def report_ratio(trial, folder: Path, repeats: int = 3) -> dict:
+def report_ratio(trial, folder: Path, repeats: int = 5) -> dict:
     """Median seconds of analysis and report over ``repeats`` runs, and their ratio."""
     runs = np.array([analyze_and_report(trial, True, folder) for _ in range(repeats)])
     analysis, report = np.median(runs, axis=0)
@@ -210,7 +210,7 @@ def main() -> None:
     hour = mem["report"] / mem["seconds"]
     lines += [f"| {mem['samples'] / 1000 / 60:.0f} minutes (ankle, fresh process; analysis includes reading) | "
               f"{mem['seconds']:.2f} s | {mem['report']:.2f} s | **{hour:.2f}** |", "",
-              "Target: report ≤ 0.4 × analysis (median of 3 runs in one process, matplotlib imported; "
+              "Target: report ≤ 0.4 × analysis (median of 5 runs in one process, matplotlib imported; "
               "the one-hour trial once, its report's time includes importing matplotlib).", "",
               "| trial length (ankle, 1 kHz) | `analyze` (identification + bands, no PDF) | per minute of data |",
               "|---|---|---|"]

@@ -88,7 +88,7 @@ def _hist(ax, x, interval, marks, label, inside, prior: Prior):
             ax.axvline(value, color=colour, lw=1, ls=":", label=name)
         elif value is not None and np.isfinite(value):
             right = value > hi_x
-            ax.annotate(f"{name} {value:.4g} $\\rightarrow$" if right else f"$\\leftarrow$ {name} {value:.4g}",
+            ax.annotate(f"{name} {value:.4g} »" if right else f"« {name} {value:.4g}",
                         xy=(1.0 if right else 0.0, 0.55), xycoords="axes fraction", ha="right" if right else "left",
                         fontsize=FONT["small"], color=colour)
     ax.legend(loc="upper right", fontsize=FONT["small"], framealpha=0.85)
@@ -242,9 +242,9 @@ def _noise_levels(ax, draws, u) -> None:
     row, its draws' histogram about their median (the levels differ by orders of magnitude, their
     spreads do not)."""
     unit = NoiseLevels.units(u["torque"], u["stiffness"])
-    names = [f"measurement noise $R$ [{unit['measurement']}]", f"elastic-torque walk $Q_s$ [{unit['torque_walk']}]",
-             f"stiffness walk, free $Q_\\sigma$ [{unit['stiffness_walk']}]",
-             f"stiffness walk, coupled $Q_c$ [{unit['coupled_walk']}]"]
+    names = [f"measurement noise R [{unit['measurement']}]", f"elastic-torque walk Q_s [{unit['torque_walk']}]",
+             f"stiffness walk, free Q_sigma [{unit['stiffness_walk']}]",
+             f"stiffness walk, coupled Q_c [{unit['coupled_walk']}]"]
     labels = []
     for k in range(min(4, draws.shape[1] - 2)):
         x = draws[:, 2 + k]

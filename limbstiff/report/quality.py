@@ -50,12 +50,12 @@ def _spectrum_axes(ax, x, fs, *, label, unit, cutoff, edge, step, floor=None):
     if floor:
         ax.axhline(np.sqrt(floor), color="0.4", lw=0.8, ls=":", label="noise floor")
     if step:
-        ax.axhline(step / np.sqrt(6 * fs), color="C2", lw=0.8, ls="-.", label="quantisation noise $q/\\sqrt{6 f_s}$")
+        ax.axhline(step / np.sqrt(6 * fs), color="C2", lw=0.8, ls="-.", label="quantisation noise q/sqrt(6 fs)")
     ax.set_xlim(freq[keep][0], fs / 2)
     bottom = np.percentile(asd[keep], 0.5)
     ax.set_ylim(bottom / 3, asd[keep].max() * 3)
     ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel(f"{label} ASD [{unit}/$\\sqrt{{\\mathrm{{Hz}}}}$]")
+    ax.set_ylabel(f"{label} ASD [{unit}/sqrt(Hz)]")
     ax.legend(loc="lower left", fontsize=FONT["small"], framealpha=0.85)
 
 
@@ -101,12 +101,12 @@ def _mcmc_rows(result):
     rows = [("sampler", f"emcee, seed {mcmc.seed}"),
             ("walkers × steps", f"{mcmc.n_walkers} × {mcmc.n_steps} (burn-in {mcmc.burn_in}, thin {mcmc.thin})")]
     for name, tau in mcmc.autocorr_time.items():
-        short = {"log_measurement": "$\\tau$ ln R", "log_torque_walk": "$\\tau$ ln $Q_s$",
-                 "log_stiffness_walk": "$\\tau$ ln $Q_\\sigma$", "log_coupled_walk": "$\\tau$ ln $Q_c$"}.get(name, f"$\\tau$ {name}")
+        short = {"log_measurement": "tau ln R", "log_torque_walk": "tau ln Q_s",
+                 "log_stiffness_walk": "tau ln Q_sigma", "log_coupled_walk": "tau ln Q_c"}.get(name, f"tau {name}")
         rows.append((short, f"{fmt(tau, 'steps', 3)}"))
-    rows += [("chain / $\\tau$", f"{fmt(mcmc.chain_in_autocorr_times, '', 3)} (50 or more wanted)"),
+    rows += [("chain / tau", f"{fmt(mcmc.chain_in_autocorr_times, '', 3)} (50 or more wanted)"),
              ("acceptance", f"{fmt(mcmc.acceptance_fraction, '', 3)}"),
-             ("converged", "yes" if mcmc.converged else "NO: chain shorter than 50 $\\tau$"),
+             ("converged", "yes" if mcmc.converged else "NO: chain shorter than 50 tau"),
              ("decimation", f"{ident.decimation} samples per filter step")]
     return rows
 
@@ -133,7 +133,7 @@ def quality_page(result):
                 ("signal edge", fmt(bw.signal_edge_hz, "Hz")),
                 ("motion frequency", fmt(f.motion_hz, "Hz")),
                 ("range of motion", fmt(d.range_of_motion, u["angle"])),
-                ("observer gain $\\alpha$", f"{fmt(d.observer_gain, '1/' + u['angle'])} "
+                ("observer gain", f"{fmt(d.observer_gain, '1/' + u['angle'])} "
                                     f"(memory {fmt(d.observer_memory, u['angle'], 3)})"),
                 ("informed window", f"{fmt(d.observable_window_s, 's', 3)}; speed above "
                                     f"{fmt(d.velocity_threshold, u['angle'] + '/s', 3)}"),
