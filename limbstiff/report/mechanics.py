@@ -70,6 +70,7 @@ def _prior(result, name: str) -> Prior:
 def _hist(ax, x, interval, marks, label, inside, prior: Prior):
     """Histogram of draws ``x`` (n,) with the (median, lo, hi) interval, the prior's density and
     the marks inside the axis."""
+    from matplotlib.ticker import NullLocator
     ax.hist(x, bins=40, color="C0", alpha=0.55, density=True, histtype="stepfilled", label="posterior")
     lo_x, hi_x = ax.get_xlim()
     ax.set_ylim(0, 1.25 * ax.get_ylim()[1])       # a prior far taller than the posterior is cut off
@@ -93,7 +94,9 @@ def _hist(ax, x, interval, marks, label, inside, prior: Prior):
                         fontsize=FONT["small"], color=colour)
     ax.legend(loc="upper right", fontsize=FONT["small"], framealpha=0.85)
     ax.set_xlabel(label)
-    ax.set_ylabel("density")
+    ax.set_ylabel("probability density")
+    ax.yaxis.set_major_locator(NullLocator())     # its values say nothing a reader needs; the shape does
+    ax.grid(False)                                # the values are in the panel beside; lines here only clutter
 
 
 class _Parameter(NamedTuple):

@@ -127,7 +127,7 @@ def relation_page(result):
         return fig
     gs = grid(fig, 2, 1, hspace=0.25)
     for k, against in enumerate(("angle", "torque")):
-        plot_relation(result, against, ax=fig.add_subplot(gs[k]))
+        plot_relation(result, against, ax=fig.add_subplot(gs[k]), legend=k == 0)   # the same symbols
     fig.axes[0].set_title("black: median of the estimate in bins of equal counts, bars: the median "
                           f"{100 * result.ci_level:.0f} % band there; blue: 10th–90th percentile of the estimate "
                           "in the bin (its change over the trial)", fontsize=FONT["small"], loc="left", wrap=True)

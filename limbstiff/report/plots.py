@@ -142,7 +142,8 @@ def relation_bins(x: np.ndarray, stiffness: np.ndarray, lo: np.ndarray, hi: np.n
                         count=np.array([g.size for g in groups]))
 
 
-def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATION_BINS):
+def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATION_BINS,
+                  legend: bool = True):
     """Stiffness against angle or torque: medians in bins with the band, over the informed samples.
 
     Grey points are the informed samples (thinned); black dots are the medians of the estimate
@@ -156,6 +157,8 @@ def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATI
     against : {"angle", "torque"}
     ax : matplotlib.axes.Axes, optional
     bins : int
+    legend : bool
+        Draw the legend (a page of two such plots draws it once).
 
     Returns
     -------
@@ -183,5 +186,6 @@ def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATI
     limits = robust_limits(np.concatenate([result.stiffness[thin], b.lo, b.hi]), pad=0.15, pct=(0.5, 99.5))
     if limits is not None:
         ax.set_ylim(*limits)
-    ax.legend(loc="upper right", framealpha=0.85)       # "best" scans every point: slow on a dense scatter
+    if legend:
+        ax.legend(loc="upper right", framealpha=0.85)   # "best" scans every point: slow on a dense scatter
     return ax

@@ -75,7 +75,13 @@ def _scan_axes(ax, scan, fs) -> None:
     twin.plot([chosen], [100 * dict(pairs).get(chosen, np.nan)], "*", color="C3", ms=11, label="corner kept")
     twin.set_ylim(min(0.0, 100 * float(scores.min()) - 5), 100)
     twin.set_ylabel("held-out torque predicted [%]", color="C4")
-    twin.legend(loc="lower right", fontsize=FONT["small"], framealpha=0.85)
+    # one legend for both y axes (drawn on the twin, which lies on top)
+    handles, labels = ax.get_legend_handles_labels()
+    more, more_labels = twin.get_legend_handles_labels()
+    if ax.get_legend() is not None:
+        ax.get_legend().remove()
+    twin.legend(handles + more, labels + more_labels, loc="lower left", ncols=2, fontsize=FONT["small"],
+                framealpha=0.85)
 
 
 def _rms(x) -> float:
