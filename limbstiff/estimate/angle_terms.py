@@ -104,7 +104,7 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
     AngleTerms or None
         None when the motion cannot tell the terms apart (:data:`MAX_CONDITION`).
     """
-    from ..mechanics.likelihood import LONG_RUN_PERIODS, long_run_covariance
+    from ..mechanics.likelihood import sandwich_covariance
 
     U, H = angle_regressors(steps)
     slopes = initial_slopes(steps.angle, U)
@@ -118,10 +118,8 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
     information = x.T @ x
     if not np.all(np.isfinite(information)) or np.linalg.cond(information) > MAX_CONDITION:
         return None                     # the motion does not tell the two terms apart (or from none)
-    h_inv = np.linalg.inv(information)
-    beta = h_inv @ (x.T @ eps)
-    lags = int(np.ceil(LONG_RUN_PERIODS / (motion_frequency * steps.step)))
-    sandwich = h_inv @ long_run_covariance(x * (eps - x @ beta)[:, None], lags) @ h_inv
+    beta = np.linalg.inv(information) @ (x.T @ eps)
+    _, sandwich = sandwich_covariance(x, eps - x @ beta, motion_frequency=motion_frequency, step=steps.step)
     if np.linalg.cond(sandwich) > MAX_CONDITION:
         return None
     # the smoother is linear in z: its course from z − β·U is its course from z less β times these

@@ -165,11 +165,32 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
                                                 problem.slopes, *noise.per_step(problem.step),
                                                 problem.initial_cov[0], problem.initial_cov[2], problem.restart)
     e = e / np.sqrt(var)
-    x = e[1:].T
-    eps = e[0] - mean[0] * e[1] - mean[1] * e[2]
+    return sandwich_covariance(e[1:].T, e[0] - mean[0] * e[1] - mean[1] * e[2],
+                               motion_frequency=motion_frequency, step=problem.step)
+
+
+def sandwich_covariance(x: np.ndarray, residual: np.ndarray, *, motion_frequency: float,
+                        step: float) -> tuple[np.ndarray, np.ndarray]:
+    """The model's and the sandwich covariance of a least-squares fit on standardised innovations.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, p)
+        The regressors' standardised innovations.
+    residual : ndarray, shape (n,)
+        The standardised innovations of the fitted quantity less ``x`` times the estimate.
+    motion_frequency : float, Hz
+    step : float, s
+        Together set the lags (:data:`LONG_RUN_PERIODS` motion periods).
+
+    Returns
+    -------
+    model, sandwich : ndarray, shape (p, p)
+        H⁻¹ (H = xᵀ·x) and H⁻¹·M·H⁻¹, M the long-run covariance of the scores x·residual.
+    """
     h_inv = np.linalg.inv(x.T @ x)
-    lags = int(np.ceil(LONG_RUN_PERIODS / (motion_frequency * problem.step)))
-    return h_inv, h_inv @ long_run_covariance(x * eps[:, None], lags) @ h_inv
+    lags = int(np.ceil(LONG_RUN_PERIODS / (motion_frequency * step)))
+    return h_inv, h_inv @ long_run_covariance(x * residual[:, None], lags) @ h_inv
 
 
 def kalman_mechanics(problem: MechanicsProblem, *, guess: LeastSquaresFit,
