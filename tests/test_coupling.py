@@ -79,3 +79,15 @@ def test_friction_is_not_taken_for_a_coupling():
                                seed=2)
     assert not result.coupling.found
     assert result.reference_error()["median"] < 0.05
+
+
+def test_two_body_gradient_is_the_derivative_of_the_response():
+    # the fit's exact Jacobian against central differences of the response itself, at a limb of
+    # 60 N·m/rad on a 400 N·m/rad coupling (step 1e-6 in ln p: truncation error ~1e-12 relative)
+    from limbstiff.coupling import _two_body, _two_body_gradient
+    w = 2 * np.pi * np.linspace(3.0, 60.0, 40)
+    x = np.log([0.002, 400.0, 0.5, 60.0, 1.0, 0.015])
+    numeric = np.column_stack([(_two_body(np.exp(x + d), w) - _two_body(np.exp(x - d), w)) / 2e-6
+                               for d in 1e-6 * np.eye(6)])
+    exact = _two_body_gradient(np.exp(x), w)
+    assert np.max(np.abs(numeric - exact)) <= 1e-6 * np.max(np.abs(exact))
