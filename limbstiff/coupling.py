@@ -51,6 +51,10 @@ LOWEST_MOTIONS, MIN_COHERENCE = 2.0, 0.5
 SEGMENT_S = 1.0
 #: Starting resonances of the two-body fit, Hz (the fit keeps the best).
 START_RESONANCES_HZ = (20.0, 30.0, 45.0, 70.0, 100.0, 150.0)
+#: Evaluations of each two-body fit: the fits that end at a coupling or a limb converge within
+#: 10–75 (simulated couplings of 20–60 Hz, the real ankles); a start that drives a parameter
+#: towards 0 or ∞ never converges and would otherwise run on.
+MAX_EVALUATIONS = 400
 
 
 @dataclass(frozen=True)
@@ -173,7 +177,7 @@ def _fit_two_body(w, h, weight, one: np.ndarray) -> tuple[np.ndarray, float]:
         kc = inertia * (2 * np.pi * f0) ** 2
         x0 = np.log([0.1 * inertia, kc, 0.1 * np.sqrt(kc * inertia), k, b, inertia])
         with np.errstate(all="ignore"):
-            fit = optimize.least_squares(residual, x0, jac=jacobian, method="lm", max_nfev=2000)
+            fit = optimize.least_squares(residual, x0, jac=jacobian, method="lm", max_nfev=MAX_EVALUATIONS)
         if np.isfinite(fit.cost) and (best is None or fit.cost < best.cost):
             best = fit
     return np.exp(best.x), float(2 * best.cost / max(2 * len(w) - 6, 1))
