@@ -149,14 +149,29 @@ def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.n
         coef = np.array([float(np.mean(sigma)) if len(near) else 0.0])
     else:
         coef = np.polyfit(y, sigma, degree)
-    integral = np.polyint(coef)
+    elastic = _clipped_antiderivative(coef, *((y.min(), y.max()) if len(near) else (0.0, 0.0)))
     gap = angle[a:b]
-    forward = smoothed[a - 1, 0] + np.polyval(integral, gap) - np.polyval(integral, angle[a - 1]) if a > 0 else None
-    backward = smoothed[b, 0] - (np.polyval(integral, angle[b]) - np.polyval(integral, gap)) if b < n else None
+    forward = smoothed[a - 1, 0] + elastic(gap) - elastic(angle[a - 1]) if a > 0 else None
+    backward = smoothed[b, 0] - (elastic(angle[b]) - elastic(gap)) if b < n else None
     if forward is None or backward is None:
         return forward if backward is None else backward
     w = (np.arange(length) + 1.0) / (length + 1.0)
     return (1.0 - w) * forward + w * backward
+
+
+def _clipped_antiderivative(coef: np.ndarray, lo: float, hi: float):
+    """∫σ dy for the polynomial σ(y) (``coef``, highest power first) held at its values at ``lo``
+    and ``hi`` outside the angles it was fitted on: beyond them a fitted quadratic says nothing,
+    and extrapolated it bends without limit (on a stiffness ramp, where σ drifts with time and
+    the angle with it, by several times the torque across a gap)."""
+    integral = np.polyint(coef)
+    at_lo, at_hi = np.polyval(coef, lo), np.polyval(coef, hi)
+
+    def elastic(y):
+        y = np.asarray(y, dtype=float)
+        return (np.polyval(integral, np.clip(y, lo, hi)) + at_lo * np.minimum(y - lo, 0.0)
+                + at_hi * np.maximum(y - hi, 0.0))
+    return elastic
 
 
 def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
