@@ -231,3 +231,14 @@ def test_a_constant_spring_of_the_independent_simulator_is_not_flagged(tmp_path,
     no angle dependence is claimed, and the verdict stays ok."""
     result = _independent_trial(tmp_path, monkeypatch, 7200, "clean-constant-elbow")
     assert result.checks["angle_dependence"].passed and result.verdict == OK
+
+
+def test_the_carried_stiffness_is_held_beyond_the_fitted_angles():
+    # σ(y) = 1 + y² fitted on y ∈ [−1, 1]: inside, ∫σ dy exactly (1 + 2·0.5³/3 from −0.5 to 0.5);
+    # outside, σ stays at its edge value 2, so 2 rad beyond the edge add 2·2 and not ∫(1 + y²)
+    from limbstiff.checks.model import _clipped_antiderivative
+    elastic = _clipped_antiderivative(np.array([1.0, 0.0, 1.0]), -1.0, 1.0)
+    assert elastic(0.5) - elastic(-0.5) == pytest.approx(1.0 + 0.25 / 3, rel=1e-12)
+    assert elastic(-1.0) - elastic(-3.0) == pytest.approx(4.0, rel=1e-12)
+    assert elastic(3.0) - elastic(1.0) == pytest.approx(4.0, rel=1e-12)
+    assert np.allclose(np.diff(elastic(np.array([0.999999, 1.0, 1.000001]))), 2e-6, rtol=1e-5)
