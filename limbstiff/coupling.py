@@ -161,7 +161,8 @@ def _two_body_gradient(p: np.ndarray, w: np.ndarray) -> np.ndarray:
 def _fit_two_body(w, h, weight, one: np.ndarray) -> tuple[np.ndarray, float]:
     """(I_d, k_c, b_c, K, B_l, I_l) by nonlinear least squares on their logarithms, from several
     starting resonances; the reduced χ² of the best. The Jacobian is exact
-    (:func:`_two_body_gradient`): by finite differences the fit took ~2 s of every analysis."""
+    (:func:`_two_body_gradient`): by finite differences, a trial whose starts do not converge
+    spent ~2 s of its analysis here."""
     k, inertia, b = max(one[0], 1e-3), max(one[1], 1e-5), max(one[2], 1e-3)
 
     def residual(x):

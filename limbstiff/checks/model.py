@@ -137,8 +137,9 @@ def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.n
 
     σ(y) is a quadratic fitted to the smoothed stiffness of the training steps within one gap
     length before and after (a stiffness that depends on the angle, as a nonlinear spring's
-    does, is followed through the motion; one that drifts in time is averaged). The torque is
-    integrated, ∫σ(y)dy, forwards from the last step before the gap and backwards from the first
+    does, is followed through the motion; one that drifts in time is averaged), held at its
+    values at the ends of those steps' angles beyond them (:func:`_clipped_antiderivative`).
+    The torque is integrated, ∫σ(y)dy, forwards from the last step before the gap and backwards from the first
     after it, and the two are blended linearly in time (one side only at the trial's ends).
     """
     n, length = len(angle), b - a
