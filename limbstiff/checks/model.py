@@ -139,8 +139,9 @@ def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.n
     length before and after (a stiffness that depends on the angle, as a nonlinear spring's
     does, is followed through the motion; one that drifts in time is averaged), held at its
     values at the ends of those steps' angles beyond them (:func:`_clipped_antiderivative`).
-    The torque is integrated, ∫σ(y)dy, forwards from the last step before the gap and backwards from the first
-    after it, and the two are blended linearly in time (one side only at the trial's ends).
+    The torque is integrated, ∫σ(y)dy, forwards from the last step before the gap and backwards
+    from the first after it, and the two are blended linearly in time (one side only at the
+    trial's ends).
     """
     n, length = len(angle), b - a
     near = np.r_[max(0, a - length):a, b:min(n, b + length)]
