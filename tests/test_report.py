@@ -21,7 +21,7 @@ matplotlib = pytest.importorskip("matplotlib")
 
 from limbstiff.report import batch_figures, report_figures, write_batch_overview, write_report  # noqa: E402
 from limbstiff.report.batch import TRIALS_PER_PAGE, order_rows  # noqa: E402
-from limbstiff.report.common import MIN_FONT, TEXT_PANEL, page_fonts  # noqa: E402
+from limbstiff.report.common import MIN_FONT, TEXT_PANEL, page_fonts, style  # noqa: E402
 
 UNITS = {"stiffness": "N·m/rad", "inertia": "kg·m²", "damping": "N·m·s/rad"}
 
@@ -112,13 +112,30 @@ def test_trial_report_pages_metadata_and_data(elbow, tmp_path):
 def test_standard_fonts_where_the_text_fits_them(elbow, tmp_path):
     """Pages whose text fits WinAnsi are written in Helvetica (not embedded: the fast path); a page
     with another character falls back to the embedded DejaVu font rather than print "?"."""
-    assert [page_fonts(fig) for fig in report_figures(elbow)] == [{}] * 6
+    with style():                                       # as write_pdf calls it: ASCII minus signs
+        assert [page_fonts(fig) for fig in report_figures(elbow)] == [{}] * 6
     pdf = write_report(elbow, tmp_path / "latin.pdf").read_bytes()
     assert b"/BaseFont /Helvetica" in pdf
     greek = dataclasses.replace(elbow, trial=dataclasses.replace(elbow.trial, name="σ-голень"))
     assert all(page_fonts(fig) == {"pdf.use14corefonts": False} for fig in report_figures(greek))  # name in every footer
     pdf = write_report(greek, tmp_path / "greek.pdf").read_bytes()
     assert b"/BaseFont /Helvetica" not in pdf and b"DejaVuSans" in pdf
+
+
+def test_fonts_look_at_tick_labels_set_as_text():
+    """Tick labels set as strings are text like any other (page_fonts skips only the formatted
+    numbers, to avoid creating every tick before drawing)."""
+    from matplotlib.figure import Figure
+    fig = Figure()
+    ax = fig.add_subplot()
+    ax.set_xticks([0, 1], ["left", "right"])
+    ax.set_ylabel("stiffness [N·m/rad]")                 # "·" is in WinAnsi
+    assert page_fonts(fig) == {}
+    ax.set_xticks([0, 1], ["left", "σ"])
+    assert page_fonts(fig) == {"pdf.use14corefonts": False}
+    ax.set_xticks([0, 1], ["left", "right"])
+    ax.legend(handles=ax.plot([0, 1], label="τ_ext"))   # a legend's text is reached too
+    assert page_fonts(fig) == {"pdf.use14corefonts": False}
 
 
 def test_fixed_inertia_and_damping_say_so(fixed):

@@ -97,10 +97,7 @@ def page_fonts(fig) -> dict:
         ``{"pdf.use14corefonts": False}`` when some line would otherwise print as "?".
     """
     from matplotlib.cbook import is_math_text
-    from matplotlib.text import Text
-    for text in fig.findobj(Text):
-        if not text.get_visible():
-            continue
+    for text in _set_texts(fig):
         for line in text.get_text().split("\n"):
             if not (text.get_parse_math() and is_math_text(line)):
                 try:
@@ -108,6 +105,26 @@ def page_fonts(fig) -> dict:
                 except UnicodeEncodeError:
                     return {"pdf.use14corefonts": False}
     return {}
+
+
+def _set_texts(artist):
+    """The visible texts of ``artist`` and its children, an axis's tick labels as formatted.
+
+    ``Figure.findobj`` would reach the tick labels through ``Axis.get_children``, which creates
+    every tick before the page is drawn (profiled: a fifth of a report's time); formatting the
+    locations costs a few milliseconds.
+    """
+    from matplotlib.axis import Axis
+    from matplotlib.text import Text
+    if isinstance(artist, Axis):
+        yield from (t for t in (artist.label, artist.offsetText) if t.get_visible())
+        labels = artist.get_major_formatter().format_ticks(artist.get_majorticklocs())
+        yield from (Text(text=label) for label in labels)
+        return
+    if isinstance(artist, Text) and artist.get_visible():
+        yield artist
+    for child in artist.get_children():
+        yield from _set_texts(child)
 
 
 def new_page(title: str | None = None):
