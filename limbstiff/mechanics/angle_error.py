@@ -13,13 +13,16 @@ Stefanski 1994, J. Am. Stat. Assoc. 89:1314).
 
 Measured on 60 of the simulated trials of ``benchmarks/identify.py``: m was identified about one
 posterior standard deviation low on the encoders (90 % intervals held it in 70 % of the elbows and
-wrists; with this correction and the sandwich covariance, in 100 %). White angle noise is not
-simulated (see :func:`angle_error_effect`). Pure numpy: no I/O.
+wrists; with this correction and the sandwich covariance, in 100 %). The sandwich is built from
+the torque residual, which holds the recording's own quantisation through −m·ÿ − b·ẏ, so the
+same simulated errors also give that part of it (``in_residual``), taken off the sandwich before
+the spread is added. White angle noise is not simulated (see :func:`angle_error_effect`). Pure
+numpy: no I/O.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -46,6 +49,10 @@ class AngleErrorEffect:
         The spread of (m, b) over the simulated errors (with the shift's own uncertainty): added
         to the posterior's.
     draws : int
+    in_residual : ndarray, shape (2, 2)
+        The part of the sandwich covariance that the simulated errors make through the torque
+        left to the spring (−m·ÿ − b·ẏ of the error): the sandwich sees the recording's own error
+        that way, so this is taken off it before ``covariance`` is added (else counted twice).
     """
 
     kind: str
@@ -53,18 +60,22 @@ class AngleErrorEffect:
     shift: np.ndarray
     covariance: np.ndarray
     draws: int
+    in_residual: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "size": self.size, "inertia_shift": float(self.shift[0]),
                 "damping_shift": float(self.shift[1]), "inertia_sd": float(np.sqrt(self.covariance[0, 0])),
-                "damping_sd": float(np.sqrt(self.covariance[1, 1])), "draws": self.draws}
+                "damping_sd": float(np.sqrt(self.covariance[1, 1])), "draws": self.draws,
+                "inertia_sd_in_residual": float(np.sqrt(max(self.in_residual[0, 0], 0.0))),
+                "damping_sd_in_residual": float(np.sqrt(max(self.in_residual[1, 1], 0.0)))}
 
 
 NO_EFFECT = AngleErrorEffect("none", 0.0, np.zeros(2), np.zeros((2, 2)), 0)
 
 
 def angle_error_effect(filtered: Filtered, fit: Callable[[np.ndarray], np.ndarray], *, rng: np.random.Generator,
-                       draws: int = ERROR_DRAWS) -> AngleErrorEffect:
+                       draws: int = ERROR_DRAWS,
+                       sandwich_part: Callable[[np.ndarray], np.ndarray] | None = None) -> AngleErrorEffect:
     """The effect of the angle's measurement error on (m, b).
 
     Parameters
@@ -77,6 +88,9 @@ def angle_error_effect(filtered: Filtered, fit: Callable[[np.ndarray], np.ndarra
     rng : numpy.random.Generator
         The grid's offsets.
     draws : int
+    sandwich_part : callable, optional
+        The sandwich covariance (2, 2) that an error's channels (3, n) (recorded less smooth:
+        its y, ẏ, ÿ) make through the torque residual; averaged over the draws.
 
     Returns
     -------
@@ -90,11 +104,15 @@ def angle_error_effect(filtered: Filtered, fit: Callable[[np.ndarray], np.ndarra
         # (the noise-free refit is ill-conditioned), and on continuous angles the effect measured
         # was nil (the ankles of benchmarks/identify.py)
         return NO_EFFECT
-    base = fit(filtered.chain.apply(smooth, 2))
+    channels = filtered.chain.apply(smooth, 2)
+    base = fit(channels)
     out = np.empty((draws, 2))
+    seen = np.zeros((2, 2))
     for j in range(draws):
         offset = rng.uniform(0.0, step)
-        recorded = step * np.round((smooth - offset) / step) + offset
-        out[j] = fit(filtered.chain.apply(recorded, 2))
+        recorded = filtered.chain.apply(step * np.round((smooth - offset) / step) + offset, 2)
+        out[j] = fit(recorded)
+        if sandwich_part is not None:
+            seen += sandwich_part(recorded - channels) / draws
     cov = np.cov(out.T) * (1.0 + 1.0 / draws)
-    return AngleErrorEffect("quantisation", step, out.mean(axis=0) - base, cov, draws)
+    return AngleErrorEffect("quantisation", step, out.mean(axis=0) - base, cov, draws, seen)

@@ -58,6 +58,11 @@ class MechanicsProblem:
     :data:`IDENTIFY_BLOCKS` equal blocks spread over the trial (the filter restarts at each):
     m and b are constant, so a few thousand steps pin them down, and the cost of the posterior
     stops growing with the trial's length.
+
+    The fields are the model's data at the steps used: the angle's increments and the spring's
+    deflection (n,), the channels (f, ÿ, ẏ) (3, n) with their initial slopes on y (3,), the
+    diffuse initial covariance, the step (s), the noise levels' bounds (4, 2), where the filter
+    restarts (n,) and the sample of each step (``index``, (n,)).
     """
 
     increments: np.ndarray
@@ -68,6 +73,7 @@ class MechanicsProblem:
     step: float
     bounds: np.ndarray
     restart: np.ndarray
+    index: np.ndarray
 
     @classmethod
     def build(cls, angle, velocity, acceleration, torque, *, sample_period: float, decimation: int,
@@ -89,7 +95,7 @@ class MechanicsProblem:
         cov0 = kalman_model.initial_cov(y, chans[0])
         z = chans[0] - guess.inertia * chans[1] - guess.damping * chans[2]
         bounds = np.array(noise_bounds(float(np.var(z)), float(np.sqrt(cov0[2])), motion_frequency))
-        return cls(np.diff(y, prepend=y[0]), g, chans, slopes, cov0, step, bounds, restart)
+        return cls(np.diff(y, prepend=y[0]), g, chans, slopes, cov0, step, bounds, restart, idx)
 
     def conditional(self, log_noise):
         """Log marginal likelihood of the noise levels, and the Gaussian posterior of (m, b).
@@ -137,8 +143,41 @@ def long_run_covariance(scores: np.ndarray, lags: int) -> np.ndarray:
 LONG_RUN_PERIODS = 3.0
 
 
+@dataclass(frozen=True)
+class RobustCovariance:
+    """The covariance of (m, b) the model gives and the sandwich one.
+
+    Parameters
+    ----------
+    model : ndarray, shape (2, 2)
+        H⁻¹, H = Σ x·xᵀ over the standardised innovations x of ÿ and ẏ.
+    sandwich : ndarray, shape (2, 2)
+        H⁻¹·M·H⁻¹, M the long-run covariance of the scores x·ε (:func:`long_run_covariance`).
+    lag_share : float
+        Lags of M ÷ innovations: the b of its fixed-b limit (:mod:`limbstiff.mechanics.fixed_b`).
+    """
+
+    model: np.ndarray
+    sandwich: np.ndarray
+    lag_share: float
+
+
+def _innovations(problem: "MechanicsProblem", log_noise, channels: np.ndarray, slopes: np.ndarray) -> np.ndarray:
+    """Standardised innovations (c, n) of ``channels`` (c, n) at the problem's steps."""
+    noise = kalman_model.NoiseLevels(*np.exp(np.asarray(log_noise, dtype=float)))
+    e, var = kernels.kalman_channel_innovations(problem.increments, problem.deflection,
+                                                np.ascontiguousarray(channels, dtype=float), slopes,
+                                                *noise.per_step(problem.step), problem.initial_cov[0],
+                                                problem.initial_cov[2], problem.restart)
+    return e / np.sqrt(var)
+
+
+def _lags(problem: "MechanicsProblem", motion_frequency: float) -> int:
+    return int(np.ceil(LONG_RUN_PERIODS / (motion_frequency * problem.step)))
+
+
 def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, *,
-                      motion_frequency: float) -> tuple[np.ndarray, np.ndarray]:
+                      motion_frequency: float) -> RobustCovariance:
     """The model's covariance of (m, b) at ``log_noise`` and the sandwich one.
 
     The model's covariance H⁻¹ (H = Σ x·xᵀ over the standardised innovations x of ÿ and ẏ) holds
@@ -158,15 +197,39 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
 
     Returns
     -------
-    model, sandwich : ndarray, shape (2, 2)
+    RobustCovariance
     """
-    noise = kalman_model.NoiseLevels(*np.exp(np.asarray(log_noise, dtype=float)))
-    e, var = kernels.kalman_channel_innovations(problem.increments, problem.deflection, problem.channels,
-                                                problem.slopes, *noise.per_step(problem.step),
-                                                problem.initial_cov[0], problem.initial_cov[2], problem.restart)
-    e = e / np.sqrt(var)
-    return sandwich_covariance(e[1:].T, e[0] - mean[0] * e[1] - mean[1] * e[2],
-                               motion_frequency=motion_frequency, step=problem.step)
+    e = _innovations(problem, log_noise, problem.channels, problem.slopes)
+    x, residual = e[1:].T, e[0] - mean[0] * e[1] - mean[1] * e[2]
+    lags = _lags(problem, motion_frequency)
+    model, sandwich = sandwich_covariance(x, residual, motion_frequency=motion_frequency, step=problem.step)
+    return RobustCovariance(model, sandwich, lags / len(residual))
+
+
+def residual_sandwich(problem: "MechanicsProblem", log_noise, torque_noise: np.ndarray, *,
+                      motion_frequency: float) -> np.ndarray:
+    """The part of the sandwich (:func:`robust_covariance`) that a noise on z makes alone.
+
+    Parameters
+    ----------
+    problem : MechanicsProblem
+    log_noise : array, shape (4,)
+    torque_noise : ndarray, shape (n,)
+        A noise on z at every sample of the trial (for example −m·ÿ − b·ẏ of the angle's
+        quantisation error); taken at the problem's steps.
+    motion_frequency : float, Hz
+
+    Returns
+    -------
+    ndarray, shape (2, 2)
+        H⁻¹·M·H⁻¹ with M the long-run covariance of x·ε, ε the noise's standardised
+        innovations through the same filter as z's.
+    """
+    channels = np.vstack([np.asarray(torque_noise, dtype=float)[problem.index], problem.channels[1:]])
+    e = _innovations(problem, log_noise, channels, np.r_[0.0, problem.slopes[1:]])
+    x = e[1:].T
+    h_inv = np.linalg.inv(x.T @ x)
+    return h_inv @ long_run_covariance(x * e[0][:, None], _lags(problem, motion_frequency)) @ h_inv
 
 
 def sandwich_covariance(x: np.ndarray, residual: np.ndarray, *, motion_frequency: float,
