@@ -172,8 +172,9 @@ def _innovations(problem: "MechanicsProblem", log_noise, channels: np.ndarray, s
     return e / np.sqrt(var)
 
 
-def _lags(problem: "MechanicsProblem", motion_frequency: float) -> int:
-    return int(np.ceil(LONG_RUN_PERIODS / (motion_frequency * problem.step)))
+def long_run_lags(motion_frequency: float, step: float) -> int:
+    """Lags of the long-run covariance: :data:`LONG_RUN_PERIODS` motion periods of steps."""
+    return int(np.ceil(LONG_RUN_PERIODS / (motion_frequency * step)))
 
 
 def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, *,
@@ -201,9 +202,8 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
     """
     e = _innovations(problem, log_noise, problem.channels, problem.slopes)
     x, residual = e[1:].T, e[0] - mean[0] * e[1] - mean[1] * e[2]
-    lags = _lags(problem, motion_frequency)
     model, sandwich = sandwich_covariance(x, residual, motion_frequency=motion_frequency, step=problem.step)
-    return RobustCovariance(model, sandwich, lags / len(residual))
+    return RobustCovariance(model, sandwich, long_run_lags(motion_frequency, problem.step) / len(residual))
 
 
 def residual_sandwich(problem: "MechanicsProblem", log_noise, torque_noise: np.ndarray, *,
@@ -229,7 +229,7 @@ def residual_sandwich(problem: "MechanicsProblem", log_noise, torque_noise: np.n
     e = _innovations(problem, log_noise, channels, np.r_[0.0, problem.slopes[1:]])
     x = e[1:].T
     h_inv = np.linalg.inv(x.T @ x)
-    return h_inv @ long_run_covariance(x * e[0][:, None], _lags(problem, motion_frequency)) @ h_inv
+    return h_inv @ long_run_covariance(x * e[0][:, None], long_run_lags(motion_frequency, problem.step)) @ h_inv
 
 
 def sandwich_covariance(x: np.ndarray, residual: np.ndarray, *, motion_frequency: float,
@@ -252,8 +252,7 @@ def sandwich_covariance(x: np.ndarray, residual: np.ndarray, *, motion_frequency
         H⁻¹ (H = xᵀ·x) and H⁻¹·M·H⁻¹, M the long-run covariance of the scores x·residual.
     """
     h_inv = np.linalg.inv(x.T @ x)
-    lags = int(np.ceil(LONG_RUN_PERIODS / (motion_frequency * step)))
-    return h_inv, h_inv @ long_run_covariance(x * residual[:, None], lags) @ h_inv
+    return h_inv, h_inv @ long_run_covariance(x * residual[:, None], long_run_lags(motion_frequency, step)) @ h_inv
 
 
 def kalman_mechanics(problem: MechanicsProblem, *, guess: LeastSquaresFit,
