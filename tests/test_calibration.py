@@ -147,8 +147,9 @@ def test_the_angle_errors_part_of_the_sandwich_is_not_counted_twice():
     # through −m·ÿ − b·ẏ; the angle error's simulated spread holds it too. residual_sandwich of the
     # residual itself is the sandwich (its innovations differ only by the initial slope: ±5 %);
     # on the elbows the quantisation is most of m's sandwich: over 80 of benchmarks/identify.py's
-    # elbows the part taken off was 0.99 of it (median), 0.24–2.92 (2nd–98th percentiles; above 1
-    # the sandwich's own noise: the difference is then set to 0), so 0.2–3.5 here
+    # elbows the part taken off was 0.88 of it (median), 0.24–2.79 (2nd–98th percentiles; above 1
+    # the sandwich's own noise: the difference is then set to 0; benchmarks/RESULTS.md section
+    # identify_intervals), so 0.2–3.5 here
     from limbstiff.analysis import identify_trial
     from limbstiff.estimate.estimators import kalman_decimation
     from limbstiff.filtered import filter_trial
