@@ -22,7 +22,8 @@ from ..protocol import Protocol
 from .angle_error import NO_EFFECT, AngleErrorEffect, angle_error_effect
 from .least_squares import LeastSquaresFit, least_squares
 from .fixed_b import bartlett_fixed_b
-from .likelihood import MechanicsFit, MechanicsProblem, kalman_mechanics, residual_sandwich, robust_covariance
+from .likelihood import (MechanicsFit, MechanicsProblem, kalman_mechanics, regressor_innovations, residual_sandwich,
+                         robust_covariance)
 from .posterior import Posterior, sample
 
 #: A quantisation shift of (m, b) larger than this share is not applied (said in the warnings):
@@ -143,10 +144,11 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     post = sample(problem, start=fit, inertia_prior=protocol.inertia_prior, damping_prior=protocol.damping_prior,
                   rng=rng, seed=seed)
     effect = _angle_error(filtered, problem, fit, guess, decimation, rng)
-    applied = _angle_error_applies(post, effect)
+    applied, refused = _angle_error_use(post, effect)
     post = _with_robust_spread(post, problem, fit, filtered.motion_hz,
                                effect.in_residual if applied else np.zeros((2, 2)), rng)
-    post = _with_angle_error(post, effect, rng) if applied else _angle_error_refused(post, effect)
+    post = (_with_angle_error(post, effect, rng) if applied
+            else dataclasses.replace(post, warnings=post.warnings + refused))
     draws = post.mechanics.copy()
     out = []
     for j, (name, given) in enumerate((("inertia", m), ("damping", b))):
@@ -176,9 +178,11 @@ def _angle_error(filtered: Filtered, problem: MechanicsProblem, fit: MechanicsFi
                                        motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge)
         return again.conditional(logs)[1]
 
+    regressors = regressor_innovations(problem, logs)
+
     def sandwich_part(error):
         noise = -(fit.inertia * error[2] + fit.damping * error[1])
-        return residual_sandwich(problem, logs, noise, motion_frequency=filtered.motion_hz)
+        return residual_sandwich(problem, logs, noise, motion_frequency=filtered.motion_hz, regressors=regressors)
     return angle_error_effect(filtered, refit, rng=rng, sandwich_part=sandwich_part)
 
 
@@ -214,22 +218,17 @@ def _with_robust_spread(post: Posterior, problem: MechanicsProblem, fit: Mechani
     return dataclasses.replace(post, draws=draws)
 
 
-def _angle_error_applies(post: Posterior, effect: AngleErrorEffect) -> bool:
-    """Whether the angle error's shift and spread are applied: simulated, and a small shift."""
+def _angle_error_use(post: Posterior, effect: AngleErrorEffect) -> tuple[bool, tuple[str, ...]]:
+    """Whether the angle error's shift and spread are applied (simulated, and a small shift), and
+    the warning when a simulated one is too large to apply."""
     if effect.draws == 0 or not np.all(np.isfinite(effect.covariance)):
-        return False
+        return False, ()
     centre = np.abs(np.median(post.draws[:, :2], axis=0))
-    return not np.any(np.abs(effect.shift) > MAX_ANGLE_ERROR_SHIFT * centre)
-
-
-def _angle_error_refused(post: Posterior, effect: AngleErrorEffect) -> Posterior:
-    """The posterior with a warning when a simulated angle error was too large to apply."""
-    if effect.draws == 0 or not np.all(np.isfinite(effect.covariance)):
-        return post
-    return dataclasses.replace(post, warnings=post.warnings + (
-        f"the angle's quantisation would move inertia and damping by {effect.shift[0]:.3g} and "
-        f"{effect.shift[1]:.3g}, more than {100 * MAX_ANGLE_ERROR_SHIFT:.0f} %: not a small error, not "
-        "corrected (a finer encoder or a given inertia and damping)",))
+    if np.any(np.abs(effect.shift) > MAX_ANGLE_ERROR_SHIFT * centre):
+        return False, (f"the angle's quantisation would move inertia and damping by {effect.shift[0]:.3g} and "
+                       f"{effect.shift[1]:.3g}, more than {100 * MAX_ANGLE_ERROR_SHIFT:.0f} %: not a small error, "
+                       "not corrected (a finer encoder or a given inertia and damping)",)
+    return True, ()
 
 
 def _with_angle_error(post: Posterior, effect: AngleErrorEffect, rng: np.random.Generator) -> Posterior:

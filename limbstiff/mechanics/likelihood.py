@@ -206,8 +206,13 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
     return RobustCovariance(model, sandwich, long_run_lags(motion_frequency, problem.step) / len(residual))
 
 
+def regressor_innovations(problem: "MechanicsProblem", log_noise) -> np.ndarray:
+    """The standardised innovations x of ÿ and ẏ, shape (n, 2): the regressors of the sandwich."""
+    return _innovations(problem, log_noise, problem.channels[1:], problem.slopes[1:]).T
+
+
 def residual_sandwich(problem: "MechanicsProblem", log_noise, torque_noise: np.ndarray, *,
-                      motion_frequency: float) -> np.ndarray:
+                      motion_frequency: float, regressors: np.ndarray | None = None) -> np.ndarray:
     """The part of the sandwich (:func:`robust_covariance`) that a noise on z makes alone.
 
     Parameters
@@ -218,6 +223,9 @@ def residual_sandwich(problem: "MechanicsProblem", log_noise, torque_noise: np.n
         A noise on z at every sample of the trial (for example −m·ÿ − b·ẏ of the angle's
         quantisation error); taken at the problem's steps.
     motion_frequency : float, Hz
+    regressors : ndarray, shape (n, 2), optional
+        :func:`regressor_innovations` at ``log_noise``, when already computed (they do not
+        depend on the noise: each channel is filtered on its own).
 
     Returns
     -------
@@ -225,11 +233,10 @@ def residual_sandwich(problem: "MechanicsProblem", log_noise, torque_noise: np.n
         H⁻¹·M·H⁻¹ with M the long-run covariance of x·ε, ε the noise's standardised
         innovations through the same filter as z's.
     """
-    channels = np.vstack([np.asarray(torque_noise, dtype=float)[problem.index], problem.channels[1:]])
-    e = _innovations(problem, log_noise, channels, np.r_[0.0, problem.slopes[1:]])
-    x = e[1:].T
-    h_inv = np.linalg.inv(x.T @ x)
-    return h_inv @ long_run_covariance(x * e[0][:, None], long_run_lags(motion_frequency, problem.step)) @ h_inv
+    x = regressor_innovations(problem, log_noise) if regressors is None else regressors
+    noise = np.asarray(torque_noise, dtype=float)[problem.index][None, :]
+    e = _innovations(problem, log_noise, noise, np.zeros(1))[0]
+    return sandwich_covariance(x, e, motion_frequency=motion_frequency, step=problem.step)[1]
 
 
 def sandwich_covariance(x: np.ndarray, residual: np.ndarray, *, motion_frequency: float,
