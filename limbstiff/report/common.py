@@ -89,7 +89,7 @@ def page_fonts(fig) -> dict:
     """rc settings for drawing ``fig``: the standard fonts when its text fits their encoding.
 
     A line of mathtext (between ``$``) is drawn by matplotlib's own fonts in either case; tick
-    labels are formatted with ASCII minus signs (:data:`_RC`), so only set texts are looked at.
+    labels are looked at as they will be formatted (with ASCII minus signs under :data:`_RC`).
 
     Returns
     -------
@@ -97,9 +97,9 @@ def page_fonts(fig) -> dict:
         ``{"pdf.use14corefonts": False}`` when some line would otherwise print as "?".
     """
     from matplotlib.cbook import is_math_text
-    for text in _set_texts(fig):
-        for line in text.get_text().split("\n"):
-            if not (text.get_parse_math() and is_math_text(line)):
+    for text, parse_math in _set_texts(fig):
+        for line in text.split("\n"):
+            if not (parse_math and is_math_text(line)):
                 try:
                     line.encode(CORE_ENCODING)
                 except UnicodeEncodeError:
@@ -108,21 +108,23 @@ def page_fonts(fig) -> dict:
 
 
 def _set_texts(artist):
-    """The visible texts of ``artist`` and its children, an axis's tick labels as formatted.
+    """(string, whether it is parsed as mathtext) of the visible texts of ``artist`` and its
+    children, an axis's tick labels as formatted (parsed as the rc settings say).
 
     ``Figure.findobj`` would reach the tick labels through ``Axis.get_children``, which creates
     every tick before the page is drawn (profiled: a fifth of a report's time); formatting the
     locations costs a few milliseconds.
     """
+    import matplotlib
     from matplotlib.axis import Axis
     from matplotlib.text import Text
     if isinstance(artist, Axis):
-        yield from (t for t in (artist.label, artist.offsetText) if t.get_visible())
-        labels = artist.get_major_formatter().format_ticks(artist.get_majorticklocs())
-        yield from (Text(text=label) for label in labels)
+        yield from ((t.get_text(), t.get_parse_math()) for t in (artist.label, artist.offsetText) if t.get_visible())
+        parse = matplotlib.rcParams["text.parse_math"]
+        yield from ((label, parse) for label in artist.get_major_formatter().format_ticks(artist.get_majorticklocs()))
         return
     if isinstance(artist, Text) and artist.get_visible():
-        yield artist
+        yield artist.get_text(), artist.get_parse_math()
     for child in artist.get_children():
         yield from _set_texts(child)
 
