@@ -31,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _results import machine, update_section  # noqa: E402
 from checks import wilson  # noqa: E402
 
-from limbstiff.analysis import analyze, identification_summary  # noqa: E402
+from limbstiff.analysis import analyze, identification_summary, identify_trial  # noqa: E402
 from limbstiff.protocol import Protocol  # noqa: E402
 from limbstiff.simulate import simulate  # noqa: E402
 
