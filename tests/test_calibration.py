@@ -143,17 +143,17 @@ def test_simulation_based_calibration_of_inertia_and_damping():
 
 
 def test_the_angle_errors_part_of_the_sandwich_is_not_counted_twice():
-    # The sandwich is built from the torque residual, which holds the recording's quantisation
-    # through −m·ÿ − b·ẏ; the angle error's simulated spread holds it too. residual_sandwich of the
-    # residual itself is the sandwich (its innovations differ only by the initial slope: ±5 %);
-    # on the elbows the quantisation is most of m's sandwich: over 80 of benchmarks/identify.py's
-    # elbows the part taken off was 0.88 of it (median), 0.24–2.79 (2nd–98th percentiles; above 1
-    # the sandwich's own noise: the difference is then set to 0; benchmarks/RESULTS.md section
-    # identify_intervals), so 0.2–3.5 here
+    # The sandwich is built from the torque residual, which holds the recording's quantisation;
+    # the angle error's simulated spread holds it too, so its part (the sandwich's mean increase
+    # when a simulated error is added) is taken off. Over 80 of benchmarks/identify.py's elbows
+    # that part was 0.62 of m's sandwich (median), 0.08–1.82 (2nd–98th percentiles; above 1 the
+    # sandwich's own noise: the difference is then set to 0), so 0.05–2.5 here. The same
+    # estimator on the recording's own channels is the shipped sandwich: the posterior's spread
+    # of m is at least the angle error's and at most its sum with the whole sandwich's.
     from limbstiff.analysis import identify_trial
     from limbstiff.estimate.estimators import kalman_decimation
     from limbstiff.filtered import filter_trial
-    from limbstiff.mechanics.likelihood import MechanicsProblem, residual_sandwich, robust_covariance
+    from limbstiff.mechanics.likelihood import MechanicsProblem, robust_covariance
     from limbstiff.protocol import Protocol
     from limbstiff.simulate import simulate
     trial = simulate("elbow", seed=4, params={"duration": 10.0})
@@ -165,11 +165,12 @@ def test_the_angle_errors_part_of_the_sandwich_is_not_counted_twice():
                                      motion_frequency=f.motion_hz, guess=ident.least_squares, edge=f.edge)
     robust = robust_covariance(problem, fit.noise.logs(), np.array([fit.inertia, fit.damping]),
                                motion_frequency=f.motion_hz)
-    own = residual_sandwich(problem, fit.noise.logs(), f.elastic_torque(fit.inertia, fit.damping),
-                            motion_frequency=f.motion_hz)
-    np.testing.assert_allclose(np.diag(own), np.diag(robust.sandwich), rtol=0.05)
     share = ident.angle_error.in_residual[0, 0] / robust.sandwich[0, 0]
-    assert 0.2 < share < 3.5
+    assert 0.05 < share < 2.5
     assert 0.0 < robust.lag_share < 0.3
+    # fixed-b factors widen the sandwich's part by at most ~1.5× in sd at these lag shares
+    spread = np.var(ident.posterior.mechanics[:, 0])
+    angle = ident.angle_error.covariance[0, 0]
+    assert 0.8 * angle < spread < 1.2 * (angle + 2.3 * robust.sandwich[0, 0])
     ankle = identify_trial(simulate("ankle", seed=4, params={"duration": 10.0}), Protocol(), seed=4)
     assert np.all(ankle.angle_error.in_residual == 0.0)               # an exact angle: nothing simulated

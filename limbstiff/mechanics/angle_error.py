@@ -14,10 +14,15 @@ Stefanski 1994, J. Am. Stat. Assoc. 89:1314).
 Measured on 60 of the simulated trials of ``benchmarks/identify.py``: m was identified about one
 posterior standard deviation low on the encoders (90 % intervals held it in 70 % of the elbows and
 wrists; with this correction and the sandwich covariance, in 100 %). The sandwich is built from
-the torque residual, which holds the recording's own quantisation through −m·ÿ − b·ẏ, so the
-same simulated errors also give that part of it (``in_residual``), taken off the sandwich before
-the spread is added. White angle noise is not simulated (see :func:`angle_error_effect`). Pure
-numpy: no I/O.
+the torque residual, which holds the recording's own quantisation, so the same simulated errors
+also give that part of it (``in_residual``), taken off the sandwich before the spread is added:
+the sandwich's mean increase when the error is added, measured by the same estimator (m and b
+refitted, the residual and the regressors holding the error, as the recording's own error enters
+it). Taken instead as the sandwich of the error's torque −m·ÿ − b·ẏ alone, it was 2–3× the
+recording's part on 60 trials of ``benchmarks/identify.py`` (4096 to 16384 counts: the torque
+noise's part was taken off with it), and the intervals of m were too narrow on the fine encoders
+(z-scores' sd 1.26 at 16384 counts) and those of b at 81–88 % on elbows and wrists. White angle
+noise is not simulated (see :func:`angle_error_effect`). Pure numpy: no I/O.
 """
 
 from __future__ import annotations
@@ -50,9 +55,9 @@ class AngleErrorEffect:
         to the posterior's.
     draws : int
     in_residual : ndarray, shape (2, 2)
-        The part of the sandwich covariance that the simulated errors make through the torque
-        left to the spring (−m·ÿ − b·ẏ of the error): the sandwich sees the recording's own error
-        that way, so this is taken off it before ``covariance`` is added (else counted twice).
+        The part of the sandwich covariance that the simulated errors make (its mean increase when
+        one is added): the sandwich sees the recording's own error that way, so this is taken off
+        it before ``covariance`` is added (else counted twice).
     """
 
     kind: str
@@ -73,9 +78,8 @@ class AngleErrorEffect:
 NO_EFFECT = AngleErrorEffect("none", 0.0, np.zeros(2), np.zeros((2, 2)), 0)
 
 
-def angle_error_effect(filtered: Filtered, fit: Callable[[np.ndarray], np.ndarray], *, rng: np.random.Generator,
-                       draws: int = ERROR_DRAWS,
-                       sandwich_part: Callable[[np.ndarray], np.ndarray] | None = None) -> AngleErrorEffect:
+def angle_error_effect(filtered: Filtered, fit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray | None]], *,
+                       rng: np.random.Generator, draws: int = ERROR_DRAWS) -> AngleErrorEffect:
     """The effect of the angle's measurement error on (m, b).
 
     Parameters
@@ -83,14 +87,12 @@ def angle_error_effect(filtered: Filtered, fit: Callable[[np.ndarray], np.ndarra
     filtered : Filtered
         The trial's signals: the smooth angle, its chain, the quantisation step found.
     fit : callable
-        (m, b) fitted from the angle's channels, an array (3, n) of y, ẏ, ÿ (the torque and the
-        noise levels held fixed).
+        From the angle's channels, an array (3, n) of y, ẏ, ÿ (the torque and the noise levels
+        held fixed): (m, b) fitted, shape (2,), and the sandwich covariance (2, 2) of that fit, or
+        None (``in_residual`` is then 0).
     rng : numpy.random.Generator
         The grid's offsets.
     draws : int
-    sandwich_part : callable, optional
-        The sandwich covariance (2, 2) that an error's channels (3, n) (recorded less smooth:
-        its y, ẏ, ÿ) make through the torque residual; averaged over the draws.
 
     Returns
     -------
@@ -104,15 +106,13 @@ def angle_error_effect(filtered: Filtered, fit: Callable[[np.ndarray], np.ndarra
         # (the noise-free refit is ill-conditioned), and on continuous angles the effect measured
         # was nil (the ankles of benchmarks/identify.py)
         return NO_EFFECT
-    channels = filtered.chain.apply(smooth, 2)
-    base = fit(channels)
+    base, base_sandwich = fit(filtered.chain.apply(smooth, 2))
     out = np.empty((draws, 2))
     seen = np.zeros((2, 2))
     for j in range(draws):
         offset = rng.uniform(0.0, step)
-        recorded = filtered.chain.apply(step * np.round((smooth - offset) / step) + offset, 2)
-        out[j] = fit(recorded)
-        if sandwich_part is not None:
-            seen += sandwich_part(recorded - channels) / draws
+        out[j], sandwich = fit(filtered.chain.apply(step * np.round((smooth - offset) / step) + offset, 2))
+        if base_sandwich is not None:
+            seen += (sandwich - base_sandwich) / draws
     cov = np.cov(out.T) * (1.0 + 1.0 / draws)
     return AngleErrorEffect("quantisation", step, out.mean(axis=0) - base, cov, draws, seen)

@@ -22,8 +22,7 @@ from ..protocol import Protocol
 from .angle_error import NO_EFFECT, AngleErrorEffect, angle_error_effect
 from .least_squares import LeastSquaresFit, least_squares
 from .fixed_b import bartlett_fixed_b
-from .likelihood import (MechanicsFit, MechanicsProblem, kalman_mechanics, regressor_innovations, residual_sandwich,
-                         robust_covariance)
+from .likelihood import MechanicsFit, MechanicsProblem, kalman_mechanics, robust_covariance
 from .posterior import Posterior, sample
 
 #: A quantisation shift of (m, b) larger than this share is not applied (said in the warnings):
@@ -169,21 +168,16 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
 def _angle_error(filtered: Filtered, problem: MechanicsProblem, fit: MechanicsFit, guess: LeastSquaresFit,
                  decimation: int, rng: np.random.Generator) -> AngleErrorEffect:
     """:func:`angle_error_effect` with (m, b) refitted at the maximum-likelihood noise levels, and
-    the part of the sandwich the simulated errors make through the torque residual."""
+    the sandwich of each refit (the part of the sandwich the angle's error makes is its increase)."""
     logs = fit.noise.logs()
 
     def refit(angle):
         again = MechanicsProblem.build(angle[0], angle[1], angle[2], filtered.torque,
                                        sample_period=filtered.sample_period, decimation=decimation,
                                        motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge)
-        return again.conditional(logs)[1]
-
-    regressors = regressor_innovations(problem, logs)
-
-    def sandwich_part(error):
-        noise = -(fit.inertia * error[2] + fit.damping * error[1])
-        return residual_sandwich(problem, logs, noise, motion_frequency=filtered.motion_hz, regressors=regressors)
-    return angle_error_effect(filtered, refit, rng=rng, sandwich_part=sandwich_part)
+        mean = again.conditional(logs)[1]
+        return mean, robust_covariance(again, logs, mean, motion_frequency=filtered.motion_hz).sandwich
+    return angle_error_effect(filtered, refit, rng=rng)
 
 
 def _with_robust_spread(post: Posterior, problem: MechanicsProblem, fit: MechanicsFit, motion_frequency: float,

@@ -206,39 +206,6 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
     return RobustCovariance(model, sandwich, long_run_lags(motion_frequency, problem.step) / len(residual))
 
 
-def regressor_innovations(problem: "MechanicsProblem", log_noise) -> np.ndarray:
-    """The standardised innovations x of ÿ and ẏ, shape (n, 2): the regressors of the sandwich."""
-    return _innovations(problem, log_noise, problem.channels[1:], problem.slopes[1:]).T
-
-
-def residual_sandwich(problem: "MechanicsProblem", log_noise, torque_noise: np.ndarray, *,
-                      motion_frequency: float, regressors: np.ndarray | None = None) -> np.ndarray:
-    """The part of the sandwich (:func:`robust_covariance`) that a noise on z makes alone.
-
-    Parameters
-    ----------
-    problem : MechanicsProblem
-    log_noise : array, shape (4,)
-    torque_noise : ndarray, shape (n,)
-        A noise on z at every sample of the trial (for example −m·ÿ − b·ẏ of the angle's
-        quantisation error); taken at the problem's steps.
-    motion_frequency : float, Hz
-    regressors : ndarray, shape (n, 2), optional
-        :func:`regressor_innovations` at ``log_noise``, when already computed (they do not
-        depend on the noise: each channel is filtered on its own).
-
-    Returns
-    -------
-    ndarray, shape (2, 2)
-        H⁻¹·M·H⁻¹ with M the long-run covariance of x·ε, ε the noise's standardised
-        innovations through the same filter as z's.
-    """
-    x = regressor_innovations(problem, log_noise) if regressors is None else regressors
-    noise = np.asarray(torque_noise, dtype=float)[problem.index][None, :]
-    e = _innovations(problem, log_noise, noise, np.zeros(1))[0]
-    return sandwich_covariance(x, e, motion_frequency=motion_frequency, step=problem.step)[1]
-
-
 def sandwich_covariance(x: np.ndarray, residual: np.ndarray, *, motion_frequency: float,
                         step: float) -> tuple[np.ndarray, np.ndarray]:
     """The model's and the sandwich covariance of a least-squares fit on standardised innovations.
