@@ -147,9 +147,8 @@ def test_the_angle_errors_part_of_the_sandwich_is_not_counted_twice():
     # the angle error's simulated spread holds it too, so its part (the sandwich's mean increase
     # when a simulated error is added) is taken off. Over 80 of benchmarks/identify.py's elbows
     # that part was 0.62 of m's sandwich (median), 0.08–1.82 (2nd–98th percentiles; above 1 the
-    # sandwich's own noise: the difference is then set to 0), so 0.05–2.5 here. The same
-    # estimator on the recording's own channels is the shipped sandwich: the posterior's spread
-    # of m is at least the angle error's and at most its sum with the whole sandwich's.
+    # sandwich's own noise: the difference is then set to 0), so 0.05–2.5 here. The posterior's
+    # spread of m then lies between the angle error's variance and that plus the whole sandwich.
     from limbstiff.analysis import identify_trial
     from limbstiff.estimate.estimators import kalman_decimation
     from limbstiff.filtered import filter_trial

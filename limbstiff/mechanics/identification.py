@@ -142,7 +142,7 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     fit = kalman_mechanics(problem, guess=guess)
     post = sample(problem, start=fit, inertia_prior=protocol.inertia_prior, damping_prior=protocol.damping_prior,
                   rng=rng, seed=seed)
-    effect = _angle_error(filtered, problem, fit, guess, decimation, rng)
+    effect = _angle_error(filtered, fit, guess, decimation, rng)
     applied, refused = _angle_error_use(post, effect)
     post = _with_robust_spread(post, problem, fit, filtered.motion_hz,
                                effect.in_residual if applied else np.zeros((2, 2)), rng)
@@ -165,8 +165,8 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
                           decimation=decimation, warnings=tuple(post.warnings), angle_error=effect)
 
 
-def _angle_error(filtered: Filtered, problem: MechanicsProblem, fit: MechanicsFit, guess: LeastSquaresFit,
-                 decimation: int, rng: np.random.Generator) -> AngleErrorEffect:
+def _angle_error(filtered: Filtered, fit: MechanicsFit, guess: LeastSquaresFit, decimation: int,
+                 rng: np.random.Generator) -> AngleErrorEffect:
     """:func:`angle_error_effect` with (m, b) refitted at the maximum-likelihood noise levels, and
     the sandwich of each refit (the part of the sandwich the angle's error makes is its increase)."""
     logs = fit.noise.logs()
