@@ -18,11 +18,12 @@ the torque residual, which holds the recording's own quantisation, so the same s
 also give that part of it (``in_residual``), taken off the sandwich before the spread is added:
 the sandwich's mean increase when the error is added, measured by the same estimator (m and b
 refitted, the residual and the regressors holding the error, as the recording's own error enters
-it). Taken instead as the sandwich of the error's torque −m·ÿ − b·ẏ alone, it was 2–3× the
-recording's part on 60 trials of ``benchmarks/identify.py`` (4096 to 16384 counts: the torque
-noise's part was taken off with it), and the intervals of m were too narrow on the fine encoders
-(z-scores' sd 1.26 at 16384 counts) and those of b at 81–88 % on elbows and wrists. White angle
-noise is not simulated (see :func:`angle_error_effect`). Pure numpy: no I/O.
+it). Taken instead as the sandwich of the error's torque −m·ÿ − b·ẏ alone, it was 1.6–3.1×
+the recording's part of m's sandwich (the recording's sandwich less that of its exact-angle twin; section
+``identify_intervals`` of ``benchmarks/RESULTS.md``, medians per encoder, elbows and wrists):
+the torque noise's part was taken off with it, and b's intervals held the truth in 86 % of the
+elbows and wrists of ``benchmarks/identify.py``. Measured as now it is 1.0–2.3×
+that part (0.9–2.2× for b). White angle noise is not simulated (see :func:`angle_error_effect`). Pure numpy: no I/O.
 """
 
 from __future__ import annotations
