@@ -10,7 +10,8 @@ ramp, a gait-like cycle, antagonistic springs —, encoders and noise; 24 trials
 a lab would, m and b identified. Per trial: the stiffness's median error and the share of samples
 whose true stiffness lies in the 90 % band (informed samples after the first 2 s, as
 ``StiffnessResult.reference_error``), whether the 90 % intervals of m, b and the trial-level
-figures hold the truth, and the verdict. Reported per family, and for the trials with an effect
+figures hold the truth (for the figures also their error in units of the interval's standard
+deviation, per figure on the clean trials), and the verdict. Reported per family, and for the trials with an effect
 per verdict: an effect the model lacks may make the band wrong, and the verdict must then not be
 ``ok``. Besides the suites, 12 clean trials with a 4 s motion pause (:data:`PAUSE_SEEDS`): the
 band's coverage over the informed samples and within the pause. Writes the section
@@ -58,8 +59,27 @@ def _one(job) -> dict:
     row.update(verdict=result.verdict, median_error=err["median"], coverage=err["coverage"],
                inertia=result.inertia.lo <= truth["inertia"] <= result.inertia.hi,
                damping=result.damping.lo <= truth["damping"] <= result.damping.hi,
-               figures=trial_level_inside(result))
+               figures=trial_level_inside(result), z=_figure_z(result))
     return row
+
+
+def _figure_z(result) -> list[float] | None:
+    """Each trial-level figure's error in units of its interval's standard deviation, (estimate −
+    truth) ÷ (half-width ÷ 1.645): beyond ±1.645 the 90 % interval misses; the sign says which way."""
+    from limbstiff.analysis import figure_samples_of
+    from limbstiff.trial_level import FIGURES, figures_of
+    level = result.trial_level
+    if level is None or not np.isfinite(level.median_stiffness.lo):
+        return None
+    samples = figure_samples_of(result.filtered, result.observable)
+    informed = samples.informed
+    truth = figures_of(result.trial.stiffness_true[samples.index][informed][None, :], samples.torque[informed])[0]
+    out = []
+    for name, t in zip(FIGURES, truth):
+        iv = getattr(level, name)
+        half = 0.5 * (iv.hi - iv.lo)
+        out.append(float(1.645 * (iv.median - t) / half) if half > 0 else float("nan"))
+    return out
 
 
 #: Seeds of the extra trials with a 4 s motion pause (the limb drifts slowly through it), one
@@ -125,6 +145,21 @@ def _line(label: str, rows: list[dict]) -> str:
             f"| {_share([r['damping'] for r in done])} | {_share(figures)} |")
 
 
+def figure_table(clean: list[dict]) -> list[str]:
+    """Per trial-level figure on the clean trials: how often its interval holds the truth, and the
+    spread of its error in units of the interval's standard deviation (1 when calibrated)."""
+    from limbstiff.trial_level import FIGURES
+    lines = ["Trial-level figures on the clean trials (error ÷ interval sd: (estimate − truth) ÷ (half-width "
+             "÷ 1.645); calibrated, its median size is 0.67, its rms 1, and 90 % of it lies within ±1.645):", "",
+             "| figure | interval holds | error ÷ interval sd: median | median size | rms |", "|---|---|---|---|---|"]
+    for i, name in enumerate(FIGURES):
+        held = [r["figures"][i] for r in clean if r["figures"]]
+        z = np.array([r["z"][i] for r in clean if r["z"] and np.isfinite(r["z"][i])])
+        lines.append(f"| `{name}` | {_share(held)} | {np.median(z):+.2f} | {np.median(np.abs(z)):.2f} "
+                     f"| {np.sqrt(np.mean(z ** 2)):.2f} |" if z.size else f"| `{name}` | — | — | — | — |")
+    return lines
+
+
 def table(rows: list[dict]) -> list[str]:
     head = ["| trials | n | median error (median) | band coverage: median [min, max] | band below 75 % "
             "| m interval holds | b interval holds | trial-level intervals hold |", "|---|---|---|---|---|---|---|---|"]
@@ -156,13 +191,16 @@ def main() -> None:
             "With an effect, verdict ok and the band below 75 %: " + (", ".join(ok_wrong) or "none") + ".",
             "", "Trials that could not be analysed: " + ("; ".join(failed) or "none") + "."]
     text += ["", "Clean trials, one by one:", "", "| trial (seed) | course | verdict | median error | band coverage "
-             "| m holds | b holds | trial-level intervals hold |", "|---|---|---|---|---|---|---|---|"]
+             "| m holds | b holds | trial-level intervals hold | figures' error ÷ interval sd (median, at mean torque, "
+             "slope) |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r["family"] == "clean" and "error" not in r:
             held = sum(r["figures"]) if r["figures"] else 0
+            z = ", ".join(f"{v:+.1f}" for v in r["z"]) if r["z"] else "—"
             text.append(f"| {r['trial']} ({r['seed']}) | {r['course']} | {r['verdict']} | {100 * r['median_error']:.2f} % "
                         f"| {100 * r['coverage']:.0f} % | {'yes' if r['inertia'] else 'no'} "
-                        f"| {'yes' if r['damping'] else 'no'} | {held} of 3 |")
+                        f"| {'yes' if r['damping'] else 'no'} | {held} of 3 | {z} |")
+    text += ["", *figure_table([r for r in rows if r["family"] == "clean" and "error" not in r])]
     text += ["", f"Trials with a {PAUSE_S:.0f} s motion pause (seeds {PAUSE_SEEDS[0]}–{PAUSE_SEEDS[-1]} of "
              "`independent_trials.TrialSpec`, clean, 30 s; the limb drifts slowly through the pause):", "",
              *pause_table(pauses)]
