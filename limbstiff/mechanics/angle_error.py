@@ -11,21 +11,21 @@ fitted again at the same noise levels. The mean change estimates the bias, the s
 variance it adds (a parametric bootstrap of the measurement error; the idea of SIMEX, Cook &
 Stefanski 1994, J. Am. Stat. Assoc. 89:1314).
 
-Measured on 60 of the simulated trials of ``benchmarks/identify.py``: without it m was identified
-about one posterior standard deviation low on the encoders (90 % intervals held it in 70 % of
-the elbows and wrists; with it and the corrected covariance, 95 % and 92 % of 200 each, section
-``identify`` of ``benchmarks/RESULTS.md``). The sandwich is built
-from the torque residual, which holds the recording's own quantisation, so the same simulated
-errors also give that part of it (``in_residual``), taken off the sandwich before the spread is
-added: the sandwich's mean increase when the error is added, measured by the same estimator (m
-and b refitted, the residual and the regressors holding the error, as the recording's own error
-enters it). Taken instead as the sandwich of the error's torque −m·ÿ − b·ẏ alone, it was
-1.6–3.1× the recording's part of m's sandwich (the recording's sandwich less that of its
-exact-angle twin; section ``identify_intervals`` of ``benchmarks/RESULTS.md``, medians per
-encoder, elbows and wrists): the torque noise's part was taken off with it, and b's intervals
-held the truth in 86 % of the elbows and wrists of ``benchmarks/identify.py``. Measured as now
-it is 1.0–2.3× that part (0.9–2.2× for b). White angle noise is not simulated (see
-:func:`angle_error_effect`). Pure numpy: no I/O.
+Measured on 60 of the simulated trials of ``benchmarks/identify.py``: without it m was
+identified about one posterior standard deviation low on the encoders (90 % intervals held it in
+70 % of the elbows and wrists; with it and the corrected covariance, 95 % and 92 % of 200 each,
+section ``identify`` of ``benchmarks/RESULTS.md``). The sandwich is built from the torque
+residual, which holds the recording's own quantisation, so the same simulated errors also give
+that part of it (``in_residual``), taken off the sandwich before the spread is added: the
+sandwich's mean increase when the error is added, measured by the same estimator (m and b
+refitted, the residual and the regressors holding the error, as the recording's own error enters
+it). Taken instead as the sandwich of the error's torque −m·ÿ − b·ẏ alone, it was 1.6–3.1× the
+recording's part of m's sandwich (the recording's sandwich less that of its exact-angle twin;
+section ``identify_intervals`` of ``benchmarks/RESULTS.md``, medians per encoder, elbows and
+wrists): the torque noise's part was taken off with it, and b's intervals held the truth in 86 %
+of the elbows and wrists of ``benchmarks/identify.py``. Measured as now it is 1.0–2.3× that part
+(0.9–2.2× for b). White angle noise is not simulated (see :func:`angle_error_effect`). Pure
+numpy: no I/O.
 """
 
 from __future__ import annotations
