@@ -142,6 +142,40 @@ def test_simulation_based_calibration_of_inertia_and_damping():
     assert 0.35 <= np.mean(ranks) <= 0.65
 
 
+def test_angle_error_effect_reports_the_fits_mean_change_spread_and_sandwich_increase():
+    # The contract of angle_error_effect, exact: shift = mean refit − exact-angle fit, covariance =
+    # their sample covariance × (1 + 1/draws), in_residual = the mean increase of the refits'
+    # sandwiches over the exact-angle fit's; the exact-angle channels are passed first, and every
+    # later call gets an angle rounded to the quantisation grid, through the same chain (the
+    # rounding error is at most half a step; the low-pass chain's overshoot keeps y within 1.5).
+    from limbstiff.filtered import filter_trial
+    from limbstiff.mechanics.angle_error import angle_error_effect
+    from limbstiff.protocol import Protocol
+    from limbstiff.simulate import simulate
+    f = filter_trial(simulate("elbow", seed=2, params={"duration": 5.0}), Protocol())
+    step = float(f.bandwidth.quantisation_step)
+    assert step == pytest.approx(2 * np.pi / 8000, rel=0.01)          # the simulated encoder's counts
+    smooth = f.chain.apply(f.angle, 2)
+    calls, draws = [], 6
+    estimates = np.array([[1.0, 2.0]] + [[1.0 + 0.1 * j, 2.0 - 0.05 * j * j] for j in range(1, draws + 1)])
+    increases = [np.diag([0.2 * j, 0.1]) for j in range(1, draws + 1)]
+
+    def fit(channels):
+        calls.append(channels)
+        j = len(calls) - 1
+        return estimates[j], np.eye(2) + (increases[j - 1] if j else 0.0)
+
+    effect = angle_error_effect(f, fit, rng=np.random.default_rng(0), draws=draws)
+    np.testing.assert_array_equal(calls[0], smooth)
+    assert all(np.max(np.abs(c[0] - smooth[0])) < 1.5 * step for c in calls[1:])
+    assert all(np.any(c[0] != smooth[0]) for c in calls[1:])
+    np.testing.assert_allclose(effect.shift, estimates[1:].mean(axis=0) - estimates[0])
+    np.testing.assert_allclose(effect.covariance, np.cov(estimates[1:].T) * (1 + 1 / draws))
+    np.testing.assert_allclose(effect.in_residual, np.mean(increases, axis=0))
+    no_sandwich = angle_error_effect(f, lambda c: (np.zeros(2), None), rng=np.random.default_rng(0), draws=3)
+    np.testing.assert_array_equal(no_sandwich.in_residual, np.zeros((2, 2)))
+
+
 def test_the_angle_errors_part_of_the_sandwich_is_not_counted_twice():
     # The sandwich is built from the torque residual, which holds the recording's quantisation;
     # the angle error's simulated spread holds it too, so its part (the sandwich's mean increase
