@@ -50,9 +50,10 @@ def evaluate(result, skip=2.0):
     return rel, inside, result.observable_fraction
 
 
-def trial_level_inside(result):
-    """Whether each trial-level interval holds the same figure of the true course (at the samples
-    the analysis computes them over: analysis.figure_samples_of)."""
+def trial_level_truth(result):
+    """Each trial-level interval with the same figure of the true course (at the samples the
+    analysis computes them over: analysis.figure_samples_of), as (interval, truth) pairs in the
+    order of trial_level.FIGURES; None when the trial has no trial-level intervals."""
     from limbstiff.analysis import figure_samples_of
     from limbstiff.trial_level import FIGURES, figures_of
     level = result.trial_level
@@ -61,7 +62,13 @@ def trial_level_inside(result):
     samples = figure_samples_of(result.filtered, result.observable)
     informed = samples.informed
     truth = figures_of(result.trial.stiffness_true[samples.index][informed][None, :], samples.torque[informed])[0]
-    return [getattr(level, name).lo <= t <= getattr(level, name).hi for name, t in zip(FIGURES, truth)]
+    return [(getattr(level, name), float(t)) for name, t in zip(FIGURES, truth)]
+
+
+def trial_level_inside(result):
+    """Whether each trial-level interval holds the same figure of the true course."""
+    pairs = trial_level_truth(result)
+    return None if pairs is None else [iv.lo <= t <= iv.hi for iv, t in pairs]
 
 
 def band_cost(result) -> tuple[float, float]:

@@ -66,20 +66,12 @@ def _one(job) -> dict:
 def _figure_z(result) -> list[float] | None:
     """Each trial-level figure's error in units of its interval's standard deviation, (estimate −
     truth) ÷ (half-width ÷ 1.645): beyond ±1.645 the 90 % interval misses; the sign says which way."""
-    from limbstiff.analysis import figure_samples_of
-    from limbstiff.trial_level import FIGURES, figures_of
-    level = result.trial_level
-    if level is None or not np.isfinite(level.median_stiffness.lo):
+    from accuracy import trial_level_truth
+    pairs = trial_level_truth(result)
+    if pairs is None:
         return None
-    samples = figure_samples_of(result.filtered, result.observable)
-    informed = samples.informed
-    truth = figures_of(result.trial.stiffness_true[samples.index][informed][None, :], samples.torque[informed])[0]
-    out = []
-    for name, t in zip(FIGURES, truth):
-        iv = getattr(level, name)
-        half = 0.5 * (iv.hi - iv.lo)
-        out.append(float(1.645 * (iv.median - t) / half) if half > 0 else float("nan"))
-    return out
+    return [float(1.645 * (iv.median - t) / (0.5 * (iv.hi - iv.lo))) if iv.hi > iv.lo else float("nan")
+            for iv, t in pairs]
 
 
 #: Seeds of the extra trials with a 4 s motion pause (the limb drifts slowly through it), one
