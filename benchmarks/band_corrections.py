@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import machine, update_section  # noqa: E402
+from _results import band_cells, machine, update_section  # noqa: E402
 from accuracy import SCENARIOS  # noqa: E402
 
 Z90 = 1.6448536269514722
@@ -150,9 +150,8 @@ def table(rows: list[dict]) -> list[str]:
             label = method
             if method == "held-out scale":
                 label += " (c² " + ", ".join("%.2f" % r["scale"] for r in sel) + ")"
-            lines.append(f"| {name} | {label} | {100 * np.median([r['median_error'] for r in sel]):.2f} % | "
-                         + ", ".join("%.0f %%" % (100 * r["coverage"]) for r in sel) + " | "
-                         + ", ".join("%.2f" % r["ratio"] for r in sel) + " |")
+            error = 100 * np.median([r["median_error"] for r in sel])
+            lines.append(f"| {name} | {label} | {error:.2f} % | {band_cells(sel)} |")
     return lines
 
 

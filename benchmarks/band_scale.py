@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import machine, update_section  # noqa: E402
+from _results import band_cells, machine, update_section  # noqa: E402
 from accuracy import SCENARIOS  # noqa: E402
 
 Z90 = 1.6448536269514722
@@ -111,15 +111,13 @@ def _one(job) -> list[dict]:
 
 
 def table(rows: list[dict]) -> list[str]:
-    lines = ["| scenario | angle | band | c (seeds) | coverage of 90 % band (seeds) | rms of error ÷ band sd (seeds) |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| scenario | angle | band | c (seeds) | coverage of 90 % band (seeds) "
+             "| rms of error ÷ band sd (seeds) |", "|---|---|---|---|---|---|"]
     for name, angle in dict.fromkeys((r["name"], r["angle"]) for r in rows):
         for method in METHODS:
             sel = [r for r in rows if r["name"] == name and r["angle"] == angle and r["method"] == method]
             c = ", ".join("%.2f" % r["c"] for r in sel) if sel[0]["c"] is not None else "–"
-            lines.append(f"| {name} | {angle} | {method} | {c} | "
-                         + ", ".join("%.0f %%" % (100 * r["coverage"]) for r in sel) + " | "
-                         + ", ".join("%.2f" % r["ratio"] for r in sel) + " |")
+            lines.append(f"| {name} | {angle} | {method} | {c} | {band_cells(sel)} |")
     return lines
 
 
