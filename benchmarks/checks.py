@@ -123,7 +123,7 @@ def table(rows) -> list[str]:
 
 
 def main(seeds: int, jobs: int, duration: float) -> str:
-    from limbstiff.simulate import EFFECTS, SCENARIOS as KNOWN
+    from limbstiff.simulate import SIMULATED_EFFECTS as EFFECTS, SCENARIOS as KNOWN
     scenarios = [s for s in LIMBS + PAPER if s in KNOWN]
     work = [(sc, eff, seed, duration) for sc in scenarios for eff in ((None, *EFFECTS) if sc in LIMBS else (None,))
             for seed in range(1, seeds + 1)]

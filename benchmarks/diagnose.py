@@ -34,7 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _results import machine  # noqa: E402
 
 from limbstiff.analysis import analyze  # noqa: E402
-from limbstiff.gap.selection import RELEVANCE
+from limbstiff.diagnosis.selection import RELEVANCE
 from limbstiff.protocol import Protocol  # noqa: E402
 from limbstiff.simulate import effect_defaults, simulate  # noqa: E402
 
@@ -79,7 +79,7 @@ def one(job):
 
 
 def _one(job):
-    from limbstiff.gap.run import diagnose
+    from limbstiff.diagnosis.run import diagnose
 
     joint, effect, index = job
     seed, params, factor = draw(joint, effect, index)
@@ -115,14 +115,14 @@ def _one(job):
 
 def _nominal_gap(trial, result, proto) -> float:
     """Held-out gap of the nominal model on a trial (as diagnose computes it)."""
-    from limbstiff.gap import crossval
-    from limbstiff.gap.channels import channels_from
+    from limbstiff.diagnosis import crossval
+    from limbstiff.diagnosis.channels import channels_from
     problem = crossval.build_problem([channels_from(trial, result)])
     return float(crossval.evaluate(problem, []).unit_rss.sum() / np.sum(problem.deviation ** 2))
 
 
 def real(jobs: int):
-    from limbstiff.gap.run import diagnose
+    from limbstiff.diagnosis.run import diagnose
     from limbstiff.files import read_trial
     from limbstiff.protocol import load_protocol
 
@@ -144,7 +144,7 @@ def real(jobs: int):
 
 
 def _real_one(name):
-    from limbstiff.gap.run import diagnose
+    from limbstiff.diagnosis.run import diagnose
     from limbstiff.files import read_trial
     from limbstiff.protocol import load_protocol
     proto = load_protocol(HERE.parent / "protocols" / "reklab-ankle.toml")

@@ -41,7 +41,7 @@ def _one(job) -> dict:
     from limbstiff.errors import LimbstiffError
     from limbstiff.estimate.observer import informed_samples
     from limbstiff.files import read_trial
-    from limbstiff.gap.run import diagnose
+    from limbstiff.diagnosis.run import diagnose
     from limbstiff.protocol import Protocol
 
     folder, name, given = job

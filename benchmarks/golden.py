@@ -7,7 +7,9 @@ The snapshot holds, with one BLAS thread: every estimator on simulated trials of
 and on two real ankle trials (``summary.json``'s numbers and a SHA-256 of the course, band and
 observable arrays), the identification alone, a two-trial diagnosis with an effect, the
 report's words (``StiffnessResult.report()``) and the batch's ``summary.csv``. ``--compare``
-prints every value that differs (JSON leaves compared exactly) and exits 1 when any does.
+prints every value that differs (JSON leaves compared exactly) and exits 1 when any does. Paths
+are written relative to the repository (``<repository>``, ``<tmp>``) and the settings' hash,
+which covers the protocol's path, is left out, so two clones give the same snapshot.
 Run before and after a change that must not change behaviour (issue 33: identical).
 """
 
@@ -91,7 +93,8 @@ def snapshot() -> dict:
         snap["batch_summary_csv"] = [line for line in table if "seconds" not in line]
         snap["batch_stiffness_csv"] = {p: digest((Path(tmp) / "out" / p / "stiffness.csv").read_bytes())
                                        for p in ("elbow", "ankle")}
-    return snap
+        text = json.dumps(snap).replace(str(ROOT), "<repository>").replace(str(tmp), "<tmp>")
+    return json.loads(text, object_hook=lambda d: {k: v for k, v in d.items() if k != "settings_sha256"})
 
 
 def differences(before, after, path="") -> list[str]:

@@ -80,7 +80,7 @@ def fixed_b_critical(b_values: np.ndarray, *, level: float = 0.9, paths: int = 2
 def _rules(job) -> dict:
     """Per trial: the truth, the shipped interval, and the pieces of the alternative rules."""
     from limbstiff.analysis import identify_trial
-    from limbstiff.estimate import kernels
+    from limbstiff.statespace import kernels
     from limbstiff.estimate.estimators import kalman_decimation
     from limbstiff.filtered import filter_trial
     from limbstiff.mechanics.likelihood import MechanicsProblem, long_run_covariance
@@ -149,7 +149,7 @@ def coverage(rows: list[dict], critical: np.ndarray) -> list[str]:
 def _design(job) -> dict:
     """One design, the torque noise drawn ``reps`` times: the true spread of m̂ against H⁻¹ and the
     mean sandwich."""
-    from limbstiff.estimate import kernels
+    from limbstiff.statespace import kernels
     from limbstiff.estimate.estimators import kalman_decimation
     from limbstiff.filtered import filter_trial
     from limbstiff.mechanics.least_squares import least_squares

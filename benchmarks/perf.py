@@ -160,7 +160,7 @@ def memory(duration: float, folder: Path) -> dict:
     from limbstiff.files import write_trial
     path = folder / "long.csv"
     write_trial(simulate("ankle", seed=5, params={"duration": duration}), path)
-    warm = "import limbstiff.analysis, limbstiff.files, numpy, limbstiff.report; import limbstiff.estimate.kernels"
+    warm = "import limbstiff.analysis, limbstiff.files, numpy, limbstiff.report; import limbstiff.statespace.kernels"
     subprocess.run([sys.executable, "-c", warm], check=True)
     out = subprocess.run([sys.executable, "-c", MEMORY_SCRIPT, str(path)], check=True, capture_output=True,
                          text=True).stdout.split()

@@ -25,7 +25,7 @@ _API = {
     "write_report": "limbstiff.report",
     "analyze_files": "limbstiff.batch.jobs",
     "identify_files": "limbstiff.batch.jobs",
-    "diagnose": "limbstiff.gap.run",
+    "diagnose": "limbstiff.diagnosis.run",
 }
 
 __all__ = ["__version__", *_API]

@@ -12,10 +12,10 @@ import pytest
 from click.testing import CliRunner
 
 from limbstiff.cli import main
-from limbstiff.gap import selection, where
-from limbstiff.gap.effects import EFFECTS
-from limbstiff.gap.kinds import Effect, TorqueEffect, remove
-from limbstiff.gap.run import diagnose
+from limbstiff.diagnosis import selection, where
+from limbstiff.diagnosis.candidates import CANDIDATES
+from limbstiff.diagnosis.kinds import ModelEffect, TorqueEffect, remove
+from limbstiff.diagnosis.run import diagnose
 from limbstiff.files import write_trial
 from limbstiff.protocol import Protocol
 from limbstiff.simulate import effect_defaults, simulate
@@ -113,16 +113,16 @@ def test_sign_flip_test_and_holm():
 
 def test_every_effect_knows_its_parameters_grid_and_removal():
     from limbstiff.analysis import analyze
-    from limbstiff.gap.channels import channels_from
-    from limbstiff.gap.kinds import Scales
+    from limbstiff.diagnosis.channels import channels_from
+    from limbstiff.diagnosis.kinds import Scales
     trial = simulate("ankle", seed=3, params={"duration": 8.0}, effect="time_delay",
                      effect_params={"delay": 0.02})
     proto = Protocol(inertia=float(trial.metadata["nominal_inertia"]),
                      damping=float(trial.metadata["nominal_damping"]))
     ch = channels_from(trial, analyze(trial, proto, seed=0))
     scales = Scales.of([ch])
-    for name, eff in EFFECTS.items():
-        assert isinstance(eff, Effect) and eff.name == name and eff.description and eff.grid_reason
+    for name, eff in CANDIDATES.items():
+        assert isinstance(eff, ModelEffect) and eff.name == name and eff.description and eff.grid_reason
         shape = eff.grid(scales)[0]
         eff.evaluate(ch, shape)
         coef = np.ones(len(eff.amplitudes))
@@ -137,7 +137,7 @@ def test_every_effect_knows_its_parameters_grid_and_removal():
         else:
             assert corr.angle is None and corr.torque is not None
     # the delay's correction advances the recorded torque by the delay
-    corr = EFFECTS["time_delay"].correction(ch, {"delay": 0.02}, np.zeros(0))
+    corr = CANDIDATES["time_delay"].correction(ch, {"delay": 0.02}, np.zeros(0))
     k = int(round(0.02 * ch.fs))
     np.testing.assert_allclose(corr.torque[:-k], ch.raw_torque[k:], atol=1e-9)
 
@@ -149,7 +149,7 @@ def test_a_new_effect_is_one_object():
                          grid=lambda s: [{}], grid_reason="no shape parameter",
                          torque=lambda ch, sh: ch.angle ** 3, smooth=True, units={"coefficient": "N·m/rad³"})
     trial = simulate("ankle", seed=5, params={"duration": 8.0}, effect="coulomb_friction")
-    d = diagnose([trial], seed=0, effects={"cubic": cubic, "coulomb_friction": EFFECTS["coulomb_friction"]})
+    d = diagnose([trial], seed=0, effects={"cubic": cubic, "coulomb_friction": CANDIDATES["coulomb_friction"]})
     assert {c.effect for c in d.candidates if c.evidence["tried"]} == {"cubic", "coulomb_friction"}
     assert d.candidate("cubic").units == {"coefficient": "N·m/rad³"}
     assert d.diagnosis == ("coulomb_friction",)
@@ -291,7 +291,7 @@ def test_cli_bad_input_is_one_line_and_exit_status(tmp_path):
 # --- the nominal model: the analysis's Kalman model with the effects as measurement terms -------------
 
 def _steps(seed=4, channels=3, n=400):
-    from limbstiff.gap.nominal import Steps
+    from limbstiff.diagnosis.nominal import Steps
     rng = np.random.default_rng(seed)
     t = np.arange(n) * 0.02
     y = 0.1 * np.sin(2 * np.pi * 0.9 * t) + 0.05 * np.sin(2 * np.pi * 2.3 * t)
@@ -304,7 +304,7 @@ def test_innovations_are_linear_in_the_channels():
     # the filter's gains do not depend on the data: the innovations of Σ w_c·channel_c are Σ w_c·e_c,
     # which is what lets every linear coefficient be fitted on the innovations (to rounding)
     from limbstiff.estimate.kalman import NoiseLevels
-    from limbstiff.gap.nominal import Steps
+    from limbstiff.diagnosis.nominal import Steps
     st = _steps()
     noise = NoiseLevels(0.05, 0.01, 30.0, 10.0)
     e, var = st.innovations(noise)
@@ -319,7 +319,7 @@ def test_innovations_are_linear_in_the_channels():
 def test_marginal_likelihood_matches_the_identification():
     # with two fitted columns it is exactly the identification's marginal likelihood of (m, b)
     # (kernels.marginal_loglik, the quadratic form with m and b integrated out under a flat prior)
-    from limbstiff.estimate import kernels
+    from limbstiff.statespace import kernels
     from limbstiff.estimate.kalman import NoiseLevels
     st = _steps()
     noise = NoiseLevels(0.05, 0.01, 30.0, 10.0)
@@ -376,7 +376,7 @@ def test_effects_of_an_independent_simulator(tmp_path, form, joint, course, expe
 def test_normal_equations_block_by_block_equal_the_dense_ones():
     # several trials: each trial's nuisance columns are zero on the others' steps, and summing the
     # normal equations block by block must give exactly the dense product (to rounding)
-    from limbstiff.gap.crossval import _gram
+    from limbstiff.diagnosis.crossval import _gram
     rng = np.random.default_rng(0)
     sizes, own, shared = (100, 120, 90), 4, 2
     X = np.zeros((sum(sizes), own * len(sizes) + shared))

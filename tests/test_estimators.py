@@ -8,7 +8,7 @@ Seeds here (7, 8) differ from the benchmark's (100+).
 import numpy as np
 import pytest
 
-from limbstiff.estimate import kernels
+from limbstiff.statespace import kernels
 from limbstiff.analysis import analyze
 from limbstiff.protocol import Protocol
 from limbstiff.simulate import simulate

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from limbstiff.estimate import kernels, observer, scan
+from limbstiff.estimate import observer, scan
+from limbstiff.statespace import kernels
 
 # The loop is x[k] = a[k]·x[k−1] + c[k] itself; kernels.linear_recursion.py_func is that loop in
 # CPython whether or not numba compiled the module.

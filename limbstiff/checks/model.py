@@ -19,11 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..estimate import kernels
+from ..statespace import kernels
 from ..estimate.estimators import kalman_decimation
 from ..estimate.angle_terms import AngleTerms, fit_angle_terms
 from ..estimate.kalman import ModelSteps, NoiseLevels, kalman_smoother, model_steps
-from ..estimate.noise_search import noise_bounds
+from ..statespace.noise import noise_bounds
 from ..filtered import Filtered
 
 #: Held-out blocks are this many periods of the typical motion long: whole periods, so that a
@@ -225,7 +225,7 @@ def dynamic_variance(filtered: Filtered) -> float:
 
 def bound_margins(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> np.ndarray:
     """How far each noise level lies below its upper bound, in natural-log units, shape (4,):
-    measurement R, torque walk Q_s, stiffness walks Q_σ and Q_c (:func:`~limbstiff.estimate.noise_search.noise_bounds`)."""
+    measurement R, torque walk Q_s, stiffness walks Q_σ and Q_c (:func:`~limbstiff.statespace.noise.noise_bounds`)."""
     st = _steps(filtered, inertia, damping)
     bounds = np.array(noise_bounds(float(np.var(st.measured)), float(np.sqrt(st.initial_cov[2])), filtered.motion_hz))
     logs = noise.logs()

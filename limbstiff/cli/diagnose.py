@@ -28,7 +28,7 @@ def command(paths, protocol_path, out, seed, inertia, damping, jobs, scheduler):
     amplitudes are shared, each trial is held out block by block); write diagnosis.json and
     diagnosis.pdf."""
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
-    from ..gap.run import diagnose_files
+    from ..diagnosis.run import diagnose_files
     from ..batch.cluster import dask_executor
     from .progress import Progress
 

@@ -34,10 +34,10 @@ def _pairs(values, what):
 def command(scenario, out, seed, effect, params, effect_params, list_):
     """Simulate SCENARIO and write it in the input format, with a stiffness_true column."""
     from ..files import write_trial
-    from ..simulate import EFFECTS, SCENARIOS, simulate
+    from ..simulate import SIMULATED_EFFECTS, SCENARIOS, simulate
 
     if list_:
-        for title, table in (("scenarios", SCENARIOS), ("effects", EFFECTS)):
+        for title, table in (("scenarios", SCENARIOS), ("effects", SIMULATED_EFFECTS)):
             click.echo(f"{title}:")
             for name, item in table.items():
                 click.echo(f"  {name}: {item.description.splitlines()[0]}")

@@ -1,7 +1,7 @@
 """A stiffness that changes with the angle within the motion cycle, fitted to the Kalman model's residual.
 
 The model's stiffness walks slowly beside the motion (the noise bounds of
-:mod:`limbstiff.estimate.noise_search`), so a stiffness that rises and falls with every excursion —
+:mod:`limbstiff.statespace.noise`), so a stiffness that rises and falls with every excursion —
 a spring stiffening with the deflection, muscle yielding beyond its short-range stiffness, a
 reflex answering stretch one way — is averaged over the cycle. Written as
 
@@ -10,7 +10,7 @@ reflex answering stretch one way — is averaged over the cycle. Written as
 the term adds to the torque left to the elastic element Σ β·h(g)·Δy over the steps
 (ds = σ·dy). The filter is linear in the data, so β follows by generalised least squares of the
 standardised innovations of z on those of the two regressors, all from one filter pass
-(:func:`~limbstiff.estimate.kernels.kalman_channel_innovations`), with the sandwich covariance
+(:func:`~limbstiff.statespace.kernels.kalman_channel_innovations`), with the sandwich covariance
 over :data:`~limbstiff.mechanics.likelihood.LONG_RUN_PERIODS` motion periods (as the
 identification's: correlated residuals do not make β significant). Pure numpy: no I/O.
 """
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import kernels
+from ..statespace import kernels
 from .kalman import ModelSteps, NoiseLevels, at_steps, initial_slopes, kalman_smoother
 
 

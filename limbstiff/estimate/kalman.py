@@ -21,7 +21,7 @@ the motion, so its posterior variance grows wherever the joint does not move. Th
 prediction errors give the exact Gaussian log-likelihood (prediction-error decomposition)
 used to fit R, Q_s, Q_σ, Q_c.
 
-Pure numpy; the recursions live in :mod:`limbstiff.estimate.kernels` (compiled when numba is
+Pure numpy; the recursions live in :mod:`limbstiff.statespace.kernels` (compiled when numba is
 installed). No I/O.
 """
 
@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import kernels
-from .noise_search import maximise, noise_bounds
+from ..statespace import kernels
+from ..statespace.noise import maximise, noise_bounds
 
 
 @dataclass(frozen=True)
@@ -233,7 +233,7 @@ def initial_cov(angle, scale_from):
     stiffness sd(torque)/sd(y) and the steepest local one, the torque's least-squares slope on y
     in :data:`SCALE_WINDOWS` windows that move (at least a tenth of the median window's spread).
 
-    σ's variance also sets the scale of the stiffness walk's bounds (:func:`~limbstiff.estimate.noise_search.noise_bounds`). The
+    σ's variance also sets the scale of the stiffness walk's bounds (:func:`~limbstiff.statespace.noise.noise_bounds`). The
     secant alone understates a spring that stiffens with the angle: on the paper's exponential
     spring its tangent stiffness reaches several times the secant one, the walk sat on its
     bound and the estimate was 75 % off."""
@@ -255,7 +255,7 @@ def initial_cov(angle, scale_from):
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, deflection: np.ndarray,
                      initial_mean, initial_cov, guess: NoiseLevels, motion_frequency: float,
                      max_evaluations: int = 400) -> tuple[NoiseLevels, float]:
-    """Maximum-likelihood noise levels within :func:`~limbstiff.estimate.noise_search.noise_bounds`.
+    """Maximum-likelihood noise levels within :func:`~limbstiff.statespace.noise.noise_bounds`.
 
     Returns
     -------

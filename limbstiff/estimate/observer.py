@@ -16,7 +16,7 @@ and r = ḟ). The law is linear in σ̂, so over each sample it is a first-order
 
 Where ẏ = 0 (or below the velocity noise level) a = 1 and c = 0: the estimate is held.
 The law is written once, in :func:`recursion_coefficients`; the recursion itself runs compiled
-(:mod:`limbstiff.estimate.kernels`), or as a blocked NumPy scan (:mod:`limbstiff.estimate.scan`)
+(:mod:`limbstiff.statespace.kernels`), or as a blocked NumPy scan (:mod:`limbstiff.estimate.scan`)
 when numba is disabled. Pure numpy: no I/O.
 """
 
@@ -24,7 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import kernels, scan
+from ..statespace import kernels
+from . import scan
 
 DISCRETISATIONS = ("exact", "euler")
 

@@ -10,7 +10,7 @@ within a block. The state carried from block to block obeys the same recursion o
 block, so it is solved by the same function, one level up, until a few values are left. Each
 level is a handful of passes over the data: no Python loop over samples.
 
-This is the reference path (and the path without numba); :mod:`limbstiff.estimate.kernels` holds the
+This is the reference path (and the path without numba); :mod:`limbstiff.statespace.kernels` holds the
 compiled loop the tests compare it with. Pure numpy.
 """
 
@@ -47,7 +47,7 @@ def linear_recursion(a: np.ndarray, c: np.ndarray, initial: float = 0.0) -> np.n
     ------
     ValueError
         When some a lies outside [0, 1] (forward Euler with a large gain): use the loop in
-        :mod:`limbstiff.estimate.kernels` for those.
+        :mod:`limbstiff.statespace.kernels` for those.
     """
     a = np.asarray(a, dtype=float)
     c = np.asarray(c, dtype=float)

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..estimate import kalman as kalman_model
-from ..estimate import kernels
-from ..estimate.noise_search import maximise, noise_bounds
+from ..statespace import kernels
+from ..statespace.noise import maximise, noise_bounds
 from .least_squares import LeastSquaresFit
 
 

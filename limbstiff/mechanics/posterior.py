@@ -3,7 +3,7 @@
 The likelihood is the Kalman model's exact one (:mod:`limbstiff.estimate.kalman`). Parameters
 θ = (m, b, ln R, ln Q_s, ln Q_σ, ln Q_c): m and b carry the protocol's priors (default: flat on
 m, b > 0) and are integrated exactly given the noise levels; the log noise levels are flat
-within :func:`limbstiff.estimate.noise_search.noise_bounds` and sampled by emcee. The chain runs in blocks until it is at least
+within :func:`limbstiff.statespace.noise.noise_bounds` and sampled by emcee. The chain runs in blocks until it is at least
 :data:`MIN_TAU_MULTIPLE` integrated autocorrelation times long (emcee's own estimator) or
 :data:`MAX_STEPS` is reached, in which case a warning says so.
 """

@@ -2,7 +2,7 @@
 before/after, and the residual before and after the chosen effects.
 
 Plotting only (non-interactive Agg backend, Figure objects, PdfPages); the numbers come from a
-:class:`~limbstiff.gap.result.Diagnosis`. Written atomically.
+:class:`~limbstiff.diagnosis.result.Diagnosis`. Written atomically.
 """
 
 from __future__ import annotations
@@ -249,7 +249,7 @@ def _residual_page(fig, d, name, s):
 
 
 def write_diagnosis_report(diagnosis, path) -> None:
-    """Write the PDF of a :class:`~limbstiff.gap.result.Diagnosis`, atomically.
+    """Write the PDF of a :class:`~limbstiff.diagnosis.result.Diagnosis`, atomically.
 
     Pages: summary; ranked effects with held-out shrinkage and intervals; per trial (up to
     :data:`MAX_TRIAL_PAGES`) the gap map over time, frequency and regime, and the residual

@@ -17,11 +17,11 @@ from typing import Mapping
 import numpy as np
 
 from ..trial import Trial
-from .effects import EFFECTS, Effect, Measurement
+from .effects import SIMULATED_EFFECTS, SimulatedEffect, Measurement
 from .plants import NO_EFFECT, DynamicsTerm, run
 from .scenarios import SCENARIOS, Scenario, check_common, lookup, merge_params
 
-__all__ = ["simulate", "simulate_with_truth", "SCENARIOS", "EFFECTS", "Scenario", "Effect",
+__all__ = ["simulate", "simulate_with_truth", "SCENARIOS", "SIMULATED_EFFECTS", "Scenario", "SimulatedEffect",
            "describe_scenarios", "effect_defaults", "trial_scales"]
 
 
@@ -29,11 +29,11 @@ def _fmt(x: float) -> str:
     return f"{float(x):.12g}"
 
 
-def _lookup_effect(name: str) -> Effect:
+def _lookup_effect(name: str) -> SimulatedEffect:
     try:
-        return EFFECTS[name]
+        return SIMULATED_EFFECTS[name]
     except KeyError:
-        raise ValueError(f"unknown effect {name!r}; available: " + ", ".join(EFFECTS)) from None
+        raise ValueError(f"unknown effect {name!r}; available: " + ", ".join(SIMULATED_EFFECTS)) from None
 
 
 def trial_scales(truth: Mapping[str, np.ndarray]) -> dict[str, float]:
@@ -129,7 +129,7 @@ def _effect_for(setup, p: Mapping[str, float], effect: str | None,
 
     Returns
     -------
-    eff : Effect or None
+    eff : SimulatedEffect or None
     params : dict of str to float
     built : DynamicsTerm, Measurement or None
     """
@@ -196,7 +196,7 @@ def simulate(scenario: str, *, seed: int = 0, params: Mapping[str, float] | None
     params : Mapping[str, float], optional
         Overrides of the scenario's defaults (``fs``, ``duration``, ``torque_noise``…).
     effect : str, optional
-        A key of ``EFFECTS``.
+        A key of ``SIMULATED_EFFECTS``.
     effect_params : Mapping[str, float], optional
         Overrides of the effect's defaults, which are sized on the scenario's nominal
         trial (see :func:`effect_defaults`).
@@ -249,7 +249,7 @@ def describe_scenarios() -> str:
         lines.append(f"  {sc.name} ({sc.kind}): {sc.description}")
         lines.append("      " + ", ".join(f"{k}={v:g}" for k, v in sc.defaults.items()))
     lines.append("Effects (defaults shown for the elbow; sized on each scenario's trial):")
-    for e in EFFECTS.values():
+    for e in SIMULATED_EFFECTS.values():
         lines.append(f"  {e.name} ({e.kind}): "
                      + ", ".join(f"{k}={v:g}" for k, v in e.defaults.items()))
     return "\n".join(lines)

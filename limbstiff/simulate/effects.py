@@ -10,11 +10,11 @@ Default sizes follow the scenario: each is a fraction of the scenario's typical 
 (``torque``: RMS external torque, N·m; ``velocity``: RMS ẏ, rad/s; ``angle``: RMS angle
 about its mean, rad; ``stiffness``: smallest σ, N·m/rad — see ``Scenario.scales``), so an
 effect is clearly visible but physiological whatever the joint. The fractions and the
-reasoning are given for each effect below; ``Effect.defaults`` shows the values for the
+reasoning are given for each effect below; ``SimulatedEffect.defaults`` shows the values for the
 human elbow (``REFERENCE_SCALES``). Sizes are rounded to three significant figures.
 
 The physics shared with the diagnosis (play, Dahl hysteresis, channel delay, Coulomb friction,
-gravity) is in :mod:`limbstiff.effects`. Two effects are deliberately simulated in another
+gravity) is in :mod:`limbstiff.unmodelled`. Two effects are deliberately simulated in another
 form than the diagnosis fits them: the reflex reads the true delayed velocity (analytic for a
 position drive, the integrated history for a torque drive) where the diagnosis can only
 interpolate the filtered one, and sensor drift is *drawn* here (a random walk, :func:`drift`)
@@ -29,11 +29,11 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from ..effects import coulomb, dahl_along, dahl_rate, delay_signal, gravity, play
+from ..unmodelled import coulomb, dahl_along, dahl_rate, delay_signal, gravity, play
 from .plants import DynamicsTerm
 
 #: Scales of the ``elbow`` scenario at its defaults (seed 0): the reference for
-#: ``Effect.defaults``.
+#: ``SimulatedEffect.defaults``.
 REFERENCE_SCALES: Mapping[str, float] = {
     "torque": 0.1729, "velocity": 0.1773, "quartic_velocity": 0.2367, "angle": 0.01286,
     "stiffness": 6.0}
@@ -51,7 +51,7 @@ class Measurement:
 
 
 @dataclass(frozen=True)
-class Effect:
+class SimulatedEffect:
     """One unmodelled effect.
 
     Attributes
@@ -164,7 +164,7 @@ def drift(t: np.ndarray, rng: np.random.Generator, slope: float, random_walk: fl
     The random walk (intensity ``random_walk``, unit/√s) is drawn at knots ``knot_interval``
     s apart and joined by a cubic spline, so it has no content above ~1/(2·knot_interval) Hz.
     A draw, not a model to fit: the diagnosis fits drift as a B-spline with free coefficients
-    (``limbstiff.gap.effects``), which contains this one.
+    (``limbstiff.diagnosis.candidates``), which contains this one.
 
     Returns
     -------
@@ -188,11 +188,11 @@ def _sensor_drift(p):
 
 
 def _effect(name, kind, sizes, build, doc, scaled=True):
-    return name, Effect(name=name, description=" ".join(doc.split()), kind=kind,
+    return name, SimulatedEffect(name=name, description=" ".join(doc.split()), kind=kind,
                         sizes=sizes, build=build, scaled=scaled)
 
 
-EFFECTS: dict[str, Effect] = dict([
+SIMULATED_EFFECTS: dict[str, SimulatedEffect] = dict([
     _effect("coulomb_friction", "dynamics",
             lambda s: {"friction_torque": 0.1 * s["torque"],
                        "smoothing_velocity": 0.05 * s["velocity"]},

@@ -35,10 +35,10 @@ from functools import cached_property
 
 import numpy as np
 
-from ..estimate import kernels
+from ..statespace import kernels
 from ..estimate.estimators import kalman_decimation
 from ..estimate.kalman import NoiseLevels, initial_cov, initial_slopes
-from ..estimate.noise_search import nelder_mead, noise_bounds
+from ..statespace.noise import nelder_mead, noise_bounds
 from ..estimate.observer import informed_samples
 from .channels import Channels
 
@@ -216,7 +216,7 @@ def fit_noise(steps: Steps, *, start: NoiseLevels, motion_hz: float) -> NoiseLev
     """Noise levels of the model by maximum marginal likelihood.
 
     Nelder–Mead on the log levels within the analysis's bounds
-    (:func:`~limbstiff.estimate.noise_search.noise_bounds`), from ``start`` and from the best point of
+    (:func:`~limbstiff.statespace.noise.noise_bounds`), from ``start`` and from the best point of
     a 5 × 5 grid over the measurement noise and the stiffness walks (both kinds at one level), the better kept. The
     likelihood has two kinds of optimum — a stiffness that walks and tracks the torque, and a
     constant one with the rest as measurement noise — and an unmodelled effect can make the

@@ -23,8 +23,8 @@ from ..trial import Trial
 from . import crossval, nominal, residual, selection
 from .bias import median_stiffness, stiffness_change
 from .channels import channels_from
-from .effects import EFFECTS
-from .kinds import MechanicsError
+from .candidates import CANDIDATES
+from .kinds import MechanicsOffset
 from .result import Candidate, Diagnosis
 
 #: Held-out blocks of a single trial.
@@ -37,10 +37,10 @@ def candidate_library(channels, effects: dict | None = None) -> tuple[dict, list
     When m and b are identified they are fitted together with every effect, so an error of
     either is not a separate effect: ``inertia_error`` and ``damping_error`` are left out.
     """
-    effects = dict(EFFECTS if effects is None else effects)
+    effects = dict(CANDIDATES if effects is None else effects)
     notes = []
     if any(c.identified for c in channels):
-        dropped = [n for n, e in effects.items() if isinstance(e, MechanicsError)]
+        dropped = [n for n, e in effects.items() if isinstance(e, MechanicsOffset)]
         effects = {n: e for n, e in effects.items() if n not in dropped}
         if dropped:
             notes.append("inertia and damping were identified from the trial(s) and are fitted together with every "
@@ -66,8 +66,8 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
         The nominal m (kg·m²) and b (N·m·s/rad) a lab assumes; otherwise they are identified
         (and fitted again together with each effect).
     blocks : int
-    effects : dict of str to Effect, optional
-        The candidate library (default :data:`effects.EFFECTS`).
+    effects : dict of str to ModelEffect, optional
+        The candidate library (default :data:`candidates.CANDIDATES`).
     results : sequence of StiffnessResult, optional
         The trials' analyses with ``protocol`` (and the overrides), when already done.
 
@@ -230,7 +230,7 @@ def _evidence(run: _Run, name: str, scored, eff) -> dict:
 
 
 def _chosen_fits(sel: selection.Selection) -> list:
-    """The chosen effects as (Effect, shape, amplitudes) of the model with all of them: the final
+    """The chosen effects as (ModelEffect, shape, amplitudes) of the model with all of them: the final
     model's amplitude vector holds each effect's amplitudes in the order chosen."""
     fitted, k = [], 0
     for eff, shape in sel.chosen:
@@ -303,7 +303,7 @@ def _settings(level: float) -> dict:
             "test": "one-sided sign-flip test of the summed held-out gains over units, Holm-corrected over the "
                     "candidates of each step",
             "relevance_reason": "an effect must remove at least this share of the nominal model's held-out "
-                                "gap, at the step it is added (see limbstiff.gap.selection.RELEVANCE)"}
+                                "gap, at the step it is added (see limbstiff.diagnosis.selection.RELEVANCE)"}
 
 
 def _notes(channels) -> list[str]:

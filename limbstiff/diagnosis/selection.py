@@ -30,7 +30,7 @@ from itertools import product
 import numpy as np
 
 from . import crossval
-from .kinds import Effect, Scales
+from .kinds import ModelEffect, Scales
 
 #: Family-wise error rate of a selection step (Holm over the candidates).
 ALPHA = 0.05
@@ -168,7 +168,7 @@ class Selection:
         Every candidate against the nominal model (step 1).
     steps : list of dict of str to Scored
         Every step's candidates against the model chosen so far.
-    chosen : list of (Effect, dict)
+    chosen : list of (ModelEffect, dict)
         The effects judged responsible, in order, with their shapes.
     final : crossval.Evaluation
         The model with every chosen effect.
@@ -187,7 +187,7 @@ class Selection:
     named_as: dict = field(default_factory=dict)
 
 
-def _score(problem, base, base_eval, effect: Effect, rng, nominal_total: float) -> Scored:
+def _score(problem, base, base_eval, effect: ModelEffect, rng, nominal_total: float) -> Scored:
     ev = crossval.evaluate(problem, base, effect, shapes=effect.grid(problem_scales(problem)))
     ref = base_eval.unit_rss
     gains = ref - ev.unit_rss
@@ -211,7 +211,7 @@ def select(problem: crossval.Problem, effects: dict, *, rng: np.random.Generator
     Parameters
     ----------
     problem : crossval.Problem
-    effects : dict of str to Effect
+    effects : dict of str to ModelEffect
         The candidate library.
     rng : numpy.random.Generator
         Source of the sign flips.
@@ -248,7 +248,7 @@ def select(problem: crossval.Problem, effects: dict, *, rng: np.random.Generator
 
 
 def _at_limit(best: str, scored: dict, eligible: list, effects: dict, problem) -> str:
-    """The effect ``best`` becomes at the lower edge of its grid (:attr:`Effect.lower_limit`),
+    """The effect ``best`` becomes at the lower edge of its grid (:attr:`ModelEffect.lower_limit`),
     when it was fitted there and that effect qualifies too; otherwise ``best``.
 
     A Dahl loop whose characteristic angle is as narrow as the grid resolves is a friction whose

@@ -3,7 +3,7 @@ logarithms.
 
 The likelihood is given as a function of the log levels, so the same search serves the analysis's
 fit (:func:`limbstiff.estimate.kalman.fit_noise_levels`), the identification's marginal likelihood
-(:mod:`limbstiff.mechanics.likelihood`) and the diagnosis's refits (:mod:`limbstiff.gap.nominal`).
+(:mod:`limbstiff.mechanics.likelihood`) and the diagnosis's refits (:mod:`limbstiff.diagnosis.nominal`).
 Pure numpy/scipy: no I/O.
 """
 

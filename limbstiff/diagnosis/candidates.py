@@ -1,6 +1,6 @@
 """The library of candidate unmodelled effects: one physically named, parametric term each.
 
-Each entry of :data:`EFFECTS` is one object of a kind from :mod:`.kinds` that adds to the
+Each entry of :data:`CANDIDATES` is one object of a kind from :mod:`.kinds` that adds to the
 nominal model f = m·ÿ + b·ẏ + s(y, t) either
 
 * a **torque** e = Σ aᵢ·φᵢ(y, ẏ, ÿ; shape) on the joint (friction, reflex…) — linear in
@@ -12,9 +12,9 @@ nominal model f = m·ÿ + b·ẏ + s(y, t) either
 
 A torque φ is computed from the filtered signals and passed through the same low-pass as the
 recorded torque. Grids come from the trial's own scales (:class:`~.kinds.Scales`), with the
-reason stated beside each. A new effect is one new entry of :data:`EFFECTS`. The physics shared
+reason stated beside each. A new effect is one new entry of :data:`CANDIDATES`. The physics shared
 with the simulator (play, Dahl hysteresis, channel delay, Coulomb friction) is in
-:mod:`limbstiff.effects`. Not in the library: gravity and sensor drift. A torque that depends on
+:mod:`limbstiff.unmodelled`. Not in the library: gravity and sensor drift. A torque that depends on
 the angle alone (gravity on an unbalanced segment) is a generalized stiffness, which the model
 holds (its static nonlinear spring and its time-varying stiffness), and a slow drift of the
 torque offset is a walk of the elastic torque (Q_s). Pure numpy/scipy: no I/O.
@@ -30,9 +30,9 @@ from functools import lru_cache
 import numpy as np
 from scipy import signal as sps
 
-from ..effects import coulomb, dahl, delay_signal, play
+from ..unmodelled import coulomb, dahl, delay_signal, play
 from .channels import Channels
-from .kinds import ChannelCorrection, Effect, MechanicsError, TorqueEffect
+from .kinds import ChannelCorrection, ModelEffect, MechanicsOffset, TorqueEffect
 
 
 # --- shapes -------------------------------------------------------------------------------
@@ -150,7 +150,7 @@ REFLEX_DELAYS_S = tuple(np.round(np.arange(0.020, 0.0801, 0.005), 3))
 ACTIVATION_HZ = (None,) + tuple(float(np.round(1.0 / (2 * np.pi * tc), 3)) for tc in (0.03, 0.06, 0.09, 0.12))
 TIME_DELAYS_S = tuple(np.round(np.arange(-0.050, 0.0501, 0.001), 3))
 
-EFFECTS: dict[str, Effect] = {e.name: e for e in (
+CANDIDATES: dict[str, ModelEffect] = {e.name: e for e in (
     TorqueEffect(
         name="coulomb_friction", description="Coulomb friction F_c opposing motion (bearings, seals, cable "
         "guides): F_c·tanh(ẏ/v_ε), or with presliding (LuGre's bristles, Dahl's friction model) F_c·z, "
@@ -204,13 +204,13 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
         "or a critically damped low-pass whose impulse response peaks at the twitch contraction time "
         "of human muscles, 30, 60, 90 or 120 ms (fast muscles to soleus): corners 1/(2π·T_c)",
         torque=_reflex),
-    MechanicsError(
+    MechanicsOffset(
         name="inertia_error", description="The true inertia differs from the nominal one by Δm (a "
         "handle, brace or footplate not accounted for).", amplitudes=("delta_inertia",),
         units={"delta_inertia": "kg·m²", "fraction": "1 (of the nominal inertia)"},
         grid=lambda s: [{}], grid_reason="no shape parameter", parameter="inertia",
         signal="acceleration"),
-    MechanicsError(
+    MechanicsOffset(
         name="damping_error", description="The true damping differs from the nominal one by Δb.",
         amplitudes=("delta_damping",),
         units={"delta_damping": "N·m·s/rad", "fraction": "1 (of the nominal damping)"}, grid=lambda s: [{}], grid_reason="no shape parameter",

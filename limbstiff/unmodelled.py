@@ -1,6 +1,6 @@
 """Physics of the unmodelled effects, written once for the simulator and the diagnosis.
 
-:mod:`limbstiff.simulate` adds these effects to a simulated joint; :mod:`limbstiff.gap` fits
+:mod:`limbstiff.simulate` adds these effects to a simulated joint; :mod:`limbstiff.diagnosis` fits
 them to a recording. Both take the primitives below from here, so that the play of a
 backlash, the Dahl hysteresis, a delayed channel, Coulomb friction and gravity are the same
 physics in both. Where the two deliberately evaluate an effect differently, both forms are

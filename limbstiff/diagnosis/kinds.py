@@ -1,18 +1,18 @@
 """How a candidate effect enters the nominal model: the kinds of effect, and their removal.
 
 The nominal model is f = m·ÿ + b·ẏ + s(y, t). A candidate effect (the library is
-:data:`.effects.EFFECTS`) is one object of a subclass of :class:`Effect`, which says how it
+:data:`.candidates.CANDIDATES`) is one object of a subclass of :class:`ModelEffect`, which says how it
 enters:
 
 * :class:`TorqueEffect` — a torque e = a·φ(y, ẏ, ÿ; shape) on the joint, linear in its
   amplitude a once its shape is fixed; removed by subtracting it from the recorded torque;
 * :class:`ChannelCorrection` — a correction of a recorded channel (the torque shifted in time,
   the angle seen through a gear's play), profiled over its one parameter;
-* :class:`MechanicsError` — an error of the nominal m or b; removed by correcting them.
+* :class:`MechanicsOffset` — an error of the nominal m or b; removed by correcting them.
 
 Each knows its parameters, its grid (from the trials' :class:`Scales`), how to evaluate itself on
 a :class:`~.channels.Channels` (:class:`Term`) and how to remove itself from the recorded
-channels (:meth:`Effect.remove_from`, :func:`remove`). Pure numpy/scipy: no I/O.
+channels (:meth:`ModelEffect.remove_from`, :func:`remove`). Pure numpy/scipy: no I/O.
 """
 
 from __future__ import annotations
@@ -89,7 +89,7 @@ class Correction:
 
 
 @dataclass(frozen=True, kw_only=True)
-class Effect:
+class ModelEffect:
     """A candidate unmodelled effect; its subclass says how it enters the model.
 
     Attributes
@@ -173,7 +173,7 @@ class Effect:
 
 
 @dataclass(frozen=True, kw_only=True)
-class TorqueEffect(Effect):
+class TorqueEffect(ModelEffect):
     """A torque on the joint, amplitude × φ(y, ẏ, ÿ; shape), removed from the recorded torque.
 
     ``torque`` : callable (Channels, shape) -> φ, shape (n,), per unit amplitude, from the
@@ -190,7 +190,7 @@ class TorqueEffect(Effect):
 
 
 @dataclass(frozen=True, kw_only=True)
-class ChannelCorrection(Effect):
+class ChannelCorrection(ModelEffect):
     """A correction of one recorded channel, profiled over its shape.
 
     ``channel`` : ``"angle"`` or ``"torque"``; ``correct`` : callable (Channels, x, shape) -> x,
@@ -216,7 +216,7 @@ class ChannelCorrection(Effect):
 
 
 @dataclass(frozen=True, kw_only=True)
-class MechanicsError(Effect):
+class MechanicsOffset(ModelEffect):
     """An error Δ of the nominal ``parameter`` (``"inertia"`` or ``"damping"``): torque Δ × the
     filtered ``signal`` (``"acceleration"`` or ``"velocity"``), removed by correcting m or b."""
 
@@ -268,8 +268,8 @@ def remove(ch: Channels, fitted) -> Correction:
     Parameters
     ----------
     ch : Channels
-    fitted : sequence of (Effect, dict, ndarray)
-        Effect, shape and amplitudes; each torque is computed on the channels corrected by the
+    fitted : sequence of (ModelEffect, dict, ndarray)
+        ModelEffect, shape and amplitudes; each torque is computed on the channels corrected by the
         effects before it (as they were fitted).
 
     Returns

@@ -8,15 +8,15 @@ levels refitted per model; the gap is its held-out one-step-ahead torque predict
 Modules (one idea each): ``channels`` (a trial's filtered signals and its analysis), ``nominal``
 (the Kalman model at its steps: innovations, marginal likelihood, noise fit, units and blocks;
 the gap metric), ``where`` (a residual in time, frequency and regime; whiteness and
-cross-correlation with bounds), ``kinds`` (how an effect enters the model), ``effects`` (the
-candidate library), ``residual`` (where a model's prediction errors lie, per trial), ``crossval``
+cross-correlation with bounds), ``kinds`` (how an effect enters the model), ``candidates`` (the
+candidate library, :data:`~limbstiff.diagnosis.candidates.CANDIDATES`), ``residual`` (where a model's prediction errors lie, per trial), ``crossval``
 (a model's innovations as a regression; fitting on training folds, scoring held out),
 ``selection`` (greedy selection with a sign-flip test, intervals, ambiguities), ``bias`` (the
 stiffness with an effect removed), ``result``
 (``Diagnosis``, ``Candidate``) and ``run`` (:func:`diagnose`, :func:`diagnose_files`).
 
-The package is named for what it measures (the gap between model and recording); the library
-call is the plain function :func:`limbstiff.diagnose` (= :func:`limbstiff.gap.diagnose`).
+The package is named for the command it serves (``limbstiff diagnose``); the library call is the
+plain function :func:`limbstiff.diagnose` (= :func:`limbstiff.diagnosis.diagnose`).
 """
 
 from __future__ import annotations

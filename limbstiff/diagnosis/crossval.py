@@ -23,7 +23,7 @@ import numpy as np
 from ..estimate.kalman import NoiseLevels, deflection
 from . import nominal
 from .channels import Channels
-from .kinds import Effect
+from .kinds import ModelEffect
 
 #: Largest channel shift a candidate may apply, s (``effects.TIME_DELAYS_S``).
 MAX_SHIFT_S = 0.05
@@ -153,7 +153,7 @@ def _composed(problem: Problem, i: int, components, keep: bool = True) -> tuple[
     return hit
 
 
-def trial_steps(problem: Problem, i: int, components, effect: Effect | None = None,
+def trial_steps(problem: Problem, i: int, components, effect: ModelEffect | None = None,
                 shape: dict | None = None) -> nominal.Steps:
     """The model's data at trial ``i``'s steps, with the candidate ``effect`` at ``shape`` last.
 
@@ -225,7 +225,7 @@ class Design:
         return _fold_fits(self.target * w, self.columns * w[:, None], rows, self.blocks)
 
 
-def design(problem: Problem, components, noise, effect: Effect | None = None, shape: dict | None = None) -> Design:
+def design(problem: Problem, components, noise, effect: ModelEffect | None = None, shape: dict | None = None) -> Design:
     """The model's :class:`Design` at the trials' noise levels ``noise`` (one per trial)."""
     per = [trial_steps(problem, i, components, effect, shape) for i in range(len(problem.channels))]
     n_own = [ch.n_nuisance for ch in problem.channels]
@@ -369,16 +369,16 @@ def _heldout_errors(problem: Problem, base_components, noise, effect, fold_shape
     return held
 
 
-def evaluate(problem: Problem, base_components, effect: Effect | None = None, *,
+def evaluate(problem: Problem, base_components, effect: ModelEffect | None = None, *,
              shapes: list | None = None) -> Evaluation:
     """Fit the base model (with ``effect`` profiled over ``shapes``) and score it held out.
 
     Parameters
     ----------
     problem : Problem
-    base_components : sequence of (Effect, dict)
+    base_components : sequence of (ModelEffect, dict)
         Effects already in the model (shapes fixed, amplitudes refitted with the new one).
-    effect : Effect or None
+    effect : ModelEffect or None
         None scores the base model itself.
     shapes : list of dict, optional
         Shape grid (default ``[{}]``).
