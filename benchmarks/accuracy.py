@@ -76,7 +76,7 @@ def band_cost(result) -> tuple[float, float]:
     band, and the two sensitivities) and of the trial-level figures (the angle terms' fit, and the
     joint draws: :data:`~limbstiff.trial_level.COURSE_DRAWS` smoother passes, the angle terms' and
     the m, b draws), on one trial."""
-    from limbstiff.analysis import _limb_stiffness, _trial_level
+    from limbstiff.analysis import limb_stiffness, trial_level_figures
     from limbstiff.estimate import estimators
     from limbstiff.checks.model import angle_terms_on
     m, b = result.inertia.median, result.damping.median
@@ -84,8 +84,9 @@ def band_cost(result) -> tuple[float, float]:
     estimate = estimators.kalman(result.filtered, inertia=m, damping=b, noise=result.fit.noise)
     t1 = time.perf_counter()
     angle = angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=result.filtered.motion_hz)
-    _trial_level(result.filtered, estimate, result.identification, result.observable, level=result.ci_level,
-                 seed=result.seed, limb=lambda x: _limb_stiffness(result.coupling, x, x, x)[0], angle=angle)
+    trial_level_figures(result.filtered, estimate, result.identification, result.observable,
+                        level=result.ci_level, seed=result.seed,
+                        limb=lambda x: limb_stiffness(result.coupling, x, x, x)[0], angle=angle)
     return t1 - t0, time.perf_counter() - t1
 
 

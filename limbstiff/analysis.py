@@ -169,15 +169,40 @@ def figure_samples_of(filtered: Filtered, observable: np.ndarray) -> FigureSampl
                           motion_frequency=filtered.motion_hz)
 
 
-def _trial_level(filtered: Filtered, estimate: estimators.Estimate, ident: Identification | None,
-                 observable: np.ndarray, *, limb, level: float, seed: int,
-                 angle: AngleTerms | None = None) -> TrialLevel:
-    """The trial-level figures over joint draws of the course at the Kalman model's steps (its
-    posterior, :func:`course_deviations`, plus posterior draws of m and b through the estimate's
-    sensitivity), on the informed steps; ``limb`` maps a one-body stiffness to the limb's. With
-    ``angle`` the course is the stiffness with its change with the angle within the cycle: the
-    part the smoothed course misses (:meth:`AngleTerms.missed_course`) added, its coefficients
-    drawn from their sandwich covariance."""
+def trial_level_figures(filtered: Filtered, estimate: estimators.Estimate, ident: Identification | None,
+                        observable: np.ndarray, *, limb, level: float, seed: int,
+                        angle: AngleTerms | None = None) -> TrialLevel:
+    """The trial-level figures over joint draws of the course at the Kalman model's steps.
+
+    The draws are the course's posterior (:func:`course_deviations`) plus posterior draws of m and
+    b through the estimate's sensitivity, on the informed steps. With ``angle`` the course is the
+    stiffness with its change with the angle within the cycle: the part the smoothed course misses
+    (:meth:`AngleTerms.missed_course`) added, its coefficients drawn from their sandwich covariance.
+
+    Parameters
+    ----------
+    filtered : Filtered
+        The trial's filtered signals.
+    estimate : estimators.Estimate
+        The estimator's output; its steps and sensitivity, when it has them, give the draws.
+    ident : Identification or None
+        Identified inertia and damping with their posterior; None when both were given.
+    observable : ndarray of bool, shape (n,)
+        The samples informed by motion.
+    limb : callable
+        Maps a one-body stiffness (an array of any shape) to the limb's, N·m/rad (N/m).
+    level : float
+        Level of the intervals (0.9 for 90 %).
+    seed : int
+        Seed of the draws.
+    angle : AngleTerms, optional
+        The stiffness's change with the angle within the cycle.
+
+    Returns
+    -------
+    TrialLevel
+        Its intervals are NaN when there is nothing to draw (no joint uncertainty).
+    """
     samples = figure_samples_of(filtered, observable)
     rng = np.random.default_rng([seed, 14])
     n_draws = course_draws_for(len(samples.index) if estimate.steps is None else len(estimate.steps.index))
@@ -203,9 +228,26 @@ def _trial_level(filtered: Filtered, estimate: estimators.Estimate, ident: Ident
                        sources=tuple(sources))
 
 
-def _limb_stiffness(coupling: CouplingFit | None, stiffness, lo, hi):
-    """The limb's stiffness and band when a coupling was found (the one-body estimate is that of
-    the springs in series); unchanged otherwise, or when the estimate reaches k_c somewhere."""
+def limb_stiffness(coupling: CouplingFit | None, stiffness, lo, hi):
+    """The limb's stiffness and band when a coupling was found.
+
+    With a coupling the one-body estimate is that of the springs in series
+    (:meth:`CouplingFit.limb_stiffness` undoes it); unchanged without one, when the correction at
+    the median stiffness exceeds :data:`MAX_CORRECTION`, or when the estimate reaches k_c somewhere.
+
+    Parameters
+    ----------
+    coupling : CouplingFit or None
+        The coupling found in the trial, if any.
+    stiffness, lo, hi : ndarray, shape (n,), N·m/rad (N/m)
+        The one-body stiffness and its band.
+
+    Returns
+    -------
+    stiffness, lo, hi : ndarray, shape (n,), N·m/rad (N/m)
+        The limb's, or the arguments themselves when unchanged; ``hi`` is inf where the limb's is
+        unbounded.
+    """
     if coupling is None or not coupling.found:
         return stiffness, lo, hi
     if not coupling.correction(float(np.median(stiffness))) <= MAX_CORRECTION:
@@ -304,14 +346,14 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
         observable = band_informed(estimate.variance, observable)
     z = float(stats.norm.ppf(0.5 + protocol.ci_level / 2))
     half = z * np.sqrt(np.maximum(estimate.variance_with(None if ident is None else ident.covariance), 0.0))
-    stiffness, lo, hi = _limb_stiffness(coupling, estimate.stiffness, estimate.stiffness - half,
-                                        estimate.stiffness + half)
+    stiffness, lo, hi = limb_stiffness(coupling, estimate.stiffness, estimate.stiffness - half,
+                                       estimate.stiffness + half)
     lo, hi = uninformed_band(lo, hi, observable)
     corrected = stiffness is not estimate.stiffness
     angle = (None if estimate.steps is None else
              angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=filtered.motion_hz))
-    figures = _trial_level(filtered, estimate, ident, observable, level=protocol.ci_level, seed=seed,
-                           limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle)
+    figures = trial_level_figures(filtered, estimate, ident, observable, level=protocol.ci_level, seed=seed,
+                                  limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle)
     checks = check_analysis(filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=_check_noise(filtered, estimate, ident), coupling=coupling,
                             corrected=corrected, angle_terms=angle)
