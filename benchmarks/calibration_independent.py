@@ -3,7 +3,7 @@
     python benchmarks/calibration_independent.py [--seeds 7100 7200] [--jobs 2]
 
 The accuracy and identification benchmarks measure the intervals on limbstiff's own simulator.
-This one measures them on the trials of ``benchmarks/independent_trials.py``, written without the
+This one measures them on the trials of ``tests/support/independent_trials.py``, written without the
 method's code (its own integrator, stiffness courses — constant, co-contraction swings, a sigmoid
 ramp, a gait-like cycle, antagonistic springs —, encoders and noise; 24 trials per suite seed:
 6 clean, 6 with a textbook effect, 12 with an effect in another form). Each trial is analysed as
@@ -30,9 +30,9 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+sys.path[:0] = [str(HERE), str(HERE.parent)]  # benchmarks/, and the repository's root for tests.support
 from _results import machine, update_section  # noqa: E402
-import independent_trials  # noqa: E402
+from tests.support import independent_trials  # noqa: E402
 
 
 def _one(job) -> dict:
@@ -174,7 +174,7 @@ def main() -> None:
                 if "error" not in r and r["family"] != "clean" and r["verdict"] == "ok"
                 and r["coverage"] is not None and r["coverage"] < 0.75]
     text = ["## Intervals on the independent simulator's trials (`benchmarks/calibration_independent.py`)", "",
-            f"Suite seeds {', '.join(map(str, args.seeds))} of `benchmarks/independent_trials.py` "
+            f"Suite seeds {', '.join(map(str, args.seeds))} of `tests/support/independent_trials.py` "
             f"({len(rows)} trials of 30 s), m and b identified; band coverage over the informed samples after "
             f"the first 2 s. Machine: {machine()}.", "", *table(rows), "",
             "Targets (clean trials, where the model holds): band coverage 85–95 %, the m, b and trial-level "

@@ -2,7 +2,7 @@
 
     python benchmarks/diagnose_independent.py [--seeds 7100 7200] [--jobs 2]
 
-The trials come from ``benchmarks/independent_trials.py``, written without the method's code
+The trials come from ``tests/support/independent_trials.py``, written without the method's code
 (RK4 at 10 kHz, its own LuGre and Stribeck friction, Bouc–Wen hysteresis, a reflex through a
 muscle activation filter, a delay on the angle channel, a saturating quadratic damping, and the
 textbook forms; stiffness constant, co-contraction swings, a sigmoid ramp or a gait-like
@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+sys.path[:0] = [str(HERE), str(HERE.parent)]  # benchmarks/, and the repository's root for tests.support
 from _results import machine, update_section  # noqa: E402
-import independent_trials  # noqa: E402
+from tests.support import independent_trials  # noqa: E402
 
 
 def _one(job) -> dict:

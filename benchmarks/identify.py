@@ -27,9 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(HERE), str(HERE.parent)]  # benchmarks/, and the repository's root for tests.support
 from _results import machine, update_section  # noqa: E402
 from checks import wilson  # noqa: E402
+from tests.support.recovery_trials import draw_trial  # noqa: E402
 
 from limbstiff.analysis import analyze, identification_summary, identify_trial  # noqa: E402
 from limbstiff.protocol import Protocol  # noqa: E402
@@ -38,26 +40,6 @@ from limbstiff.simulate import simulate  # noqa: E402
 REAL = Path(__file__).resolve().parents[1] / "data" / "reklab-ankle"
 SOURCE_MD = {"z_df": (0.0166, 1.35, 90.0), "z_df2": (0.0145, 0.79, 54.0), "z_df3": (0.0138, 1.45, 139.0),
              "z_pf": (0.0165, 0.65, 69.0), "z_pf2": (0.0149, 1.48, 127.0)}
-
-
-def draw_trial(i: int):
-    """Scenario and parameters of recovery trial ``i`` (seeded by ``i``)."""
-    rng = np.random.default_rng(10_000 + i)
-    joint = ("elbow", "wrist", "ankle")[i % 3]
-    if joint == "elbow":
-        p = {"inertia": rng.uniform(0.04, 0.08), "damping": rng.uniform(0.3, 0.6),
-             "stiffness_start": rng.uniform(4, 10), "stiffness_end": rng.uniform(15, 35),
-             "torque_noise": rng.uniform(0.005, 0.02), "encoder_counts": float(rng.choice([4096, 8000, 16384]))}
-    elif joint == "wrist":
-        p = {"inertia": rng.uniform(0.003, 0.006), "damping": rng.uniform(0.03, 0.08),
-             "stiffness_start": rng.uniform(0.8, 1.5), "stiffness_end": rng.uniform(2.5, 5.0),
-             "torque_noise": rng.uniform(0.001, 0.004), "encoder_counts": float(rng.choice([4096, 8000]))}
-    else:
-        p = {"inertia": rng.uniform(0.010, 0.020), "damping": rng.uniform(0.6, 1.5),
-             "stiffness": rng.uniform(40, 100), "stiffness_variation": rng.uniform(0, 0.3),
-             "variation_period": rng.uniform(5, 20), "torque_noise": rng.uniform(0.02, 0.08)}
-    p["duration"] = 20.0
-    return joint, p, 20_000 + i
 
 
 def recovery_one(i: int):

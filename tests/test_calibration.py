@@ -114,20 +114,17 @@ def test_trial_level_intervals_cover_the_median_of_known_draws():
 
 def test_simulation_based_calibration_of_inertia_and_damping():
     # SBC in small (Talts et al. 2018, arXiv:1804.06788): m, b, the stiffness course, noise and encoder
-    # drawn at random as in benchmarks/identify.py (its draw_trial, 10 s instead of 20), simulated by
+    # drawn at random as in benchmarks/identify.py (support/recovery_trials.py, 10 s instead of 20), simulated by
     # the physical simulator (not the Kalman model), identified. The truth's rank among the posterior
     # draws is uniform when the posterior is calibrated: over 18 trials × 2 parameters the share inside
     # the 90 % interval must lie in 0.72–0.99 (binomial: 36 intervals at 0.9 fall outside with
     # probability < 2 %; before this work the share was about 0.6) and the mean rank in 0.35–0.65
     # (a bias shows as ranks piled at one end: before, b's ranks sat near 0).
-    import sys
-    from pathlib import Path
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    from identify import draw_trial
-
     from limbstiff.analysis import identify_trial
     from limbstiff.protocol import Protocol
     from limbstiff.simulate import simulate
+
+    from .support.recovery_trials import draw_trial
     ranks, inside = [], []
     for i in range(18):
         joint, params, seed = draw_trial(i)

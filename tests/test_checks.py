@@ -200,25 +200,24 @@ def test_steep_exponential_springs_the_estimator_misses_are_flagged(spring):
     assert result.verdict != OK and "noise_levels_at_bounds" in _failed(result)
 
 
-def _independent_trial(tmp_path, monkeypatch, seed: int, name: str):
-    """A trial of the independent simulator (``benchmarks/independent_trials.py``, written without
+def _independent_trial(tmp_path, seed: int, name: str):
+    """A trial of the independent simulator (``tests/support/independent_trials.py``, written without
     limbstiff's code), analysed with m and b identified."""
-    from pathlib import Path
-    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    import independent_trials
     from limbstiff.files import read_trial
+
+    from .support import independent_trials
     spec = next(s for s in independent_trials.suite(seed) if s.name == name)
     independent_trials.write_trial(spec, tmp_path)
     return limbstiff.analyze(read_trial(tmp_path / f"{name}.csv"), seed=0)
 
 
-def test_a_spring_stiffening_within_the_cycle_is_flagged(tmp_path, monkeypatch):
+def test_a_spring_stiffening_within_the_cycle_is_flagged(tmp_path):
     """The independent simulator's co-contracting elbow with a cubic spring (suite seed 7200): its
     tangent stiffness rises by 3·k₃·θ² at every excursion (k₃ = 84 N·m/rad³, ±0.3 rad), which the
     model averages over the cycle; every other check passed and the band held the truth in 30 % of
     the samples. The angle terms' Wald statistic is 150 (χ²₂: 13.8 at 0.1 %) and what the course
     misses of them is 3.2 band half-widths (measured), so the check fails and says why."""
-    result = _independent_trial(tmp_path, monkeypatch, 7200, "clean-cocontraction-cubic-elbow")
+    result = _independent_trial(tmp_path, 7200, "clean-cocontraction-cubic-elbow")
     check = result.checks["angle_dependence"]
     assert not check.passed and result.verdict == CAUTION
     assert check.value > 2.0                       # measured 3.2; 1.0 is the threshold
@@ -226,10 +225,10 @@ def test_a_spring_stiffening_within_the_cycle_is_flagged(tmp_path, monkeypatch):
     assert result.reference_error()["coverage"] < 0.75   # the flag is deserved: the band misses
 
 
-def test_a_constant_spring_of_the_independent_simulator_is_not_flagged(tmp_path, monkeypatch):
+def test_a_constant_spring_of_the_independent_simulator_is_not_flagged(tmp_path):
     """Its constant elbow of the same suite: Wald 5.9 (measured), below χ²₂'s 0.1 % point 13.8, so
     no angle dependence is claimed, and the verdict stays ok."""
-    result = _independent_trial(tmp_path, monkeypatch, 7200, "clean-constant-elbow")
+    result = _independent_trial(tmp_path, 7200, "clean-constant-elbow")
     assert result.checks["angle_dependence"].passed and result.verdict == OK
 
 

@@ -344,14 +344,12 @@ def test_cli_diagnoses_several_trials_in_processes(tmp_path):
     assert len(data["failed"]) == 1 and "t2.csv" in data["failed"][0]
 
 
-# --- trials from the independent simulator (benchmarks/independent_trials.py, not the method's forms) ---
+# --- trials from the independent simulator (tests/support/independent_trials.py, not the method's forms) ---
 
 def _independent(tmp_path, name, form, joint, course, seed):
-    import sys
-    from pathlib import Path
     from limbstiff.files import read_trial
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    import independent_trials as it
+
+    from .support import independent_trials as it
     truth = it.write_trial(it.TrialSpec(name=name, family="t", form=form, joint=joint, course=course, seed=seed,
                                         duration_s=20.0), tmp_path)
     proto = Protocol(inertia=truth["inertia"], damping=truth["damping"])

@@ -92,9 +92,9 @@ def test_band_informed_drops_samples_whose_band_is_three_times_wider():
     assert band_informed(variance, few) is few                 # fewer than 3 usable samples: left as it is
 
 
-def test_a_pause_the_independent_simulator_drifts_through_is_not_informed(tmp_path, monkeypatch):
+def test_a_pause_the_independent_simulator_drifts_through_is_not_informed(tmp_path):
     """The independent simulator's clean co-contraction elbow with a 3 s pause (suite seed 7200,
-    ``benchmarks/independent_trials.py``, written without limbstiff's code): the limb drifts at
+    ``tests/support/independent_trials.py``, written without limbstiff's code): the limb drifts at
     about 3 % of its speed in the pause, far above the velocity noise, so the motion criterion
     alone counts the pause as informed, and there the model's band held the truth in 20 % of the
     samples (the stiffness swings 27 → 13 → 24 N·m/rad across the gap). Its band is over three
@@ -102,10 +102,10 @@ def test_a_pause_the_independent_simulator_drifts_through_is_not_informed(tmp_pa
     after 2 s then holds the truth in 96 % of them (88 % before). Bounds: the 90 % band's
     coverage on one trial, between 85 % (below: too narrow) and 99 % (above: no longer a 90 % band)."""
     import json
-    from pathlib import Path
-    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    import independent_trials
+
     from limbstiff.files import read_trial
+
+    from .support import independent_trials
     spec = next(s for s in independent_trials.suite(7200) if s.name == "clean-pause-elbow")
     independent_trials.write_trial(spec, tmp_path)
     truth = json.loads((tmp_path / f"{spec.name}.json").read_text())

@@ -1,4 +1,4 @@
-"""Independent simulator of joint-stiffness recordings for benchmarking ``diagnose``.
+"""Independent simulator of joint-stiffness recordings, for testing and benchmarking ``diagnose``.
 
 Standalone (numpy + scipy, numba optional): nothing here is taken from ``limbstiff``.
 A single rotational joint follows a prescribed smooth angle trajectory theta(t) and the
@@ -11,7 +11,9 @@ the measurement (encoder quantisation, white noise) is added after sampling.  Ea
 carries at most one unmodelled effect, either in an "independent" (non-textbook) form or in
 the "same" (textbook) form; its truth is written beside the CSV as JSON.
 
-Usage: ``python benchmarks/independent_trials.py OUTDIR [--seed 7100]``.
+Used by the tests and by ``benchmarks/diagnose_independent.py`` and
+``benchmarks/calibration_independent.py``. Usage: ``python tests/support/independent_trials.py OUTDIR
+[--seed 7100]``.
 """
 from __future__ import annotations
 
