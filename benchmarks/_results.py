@@ -34,9 +34,3 @@ def update_section(name: str, text: str) -> None:
     else:
         body = body.rstrip() + "\n\n" + block + "\n"
     RESULTS.write_text(body, encoding="utf-8")
-
-
-def band_cells(rows: list[dict]) -> str:
-    """The coverage and rms-of-error-÷-band-sd cells of a band table, a value per seed in each."""
-    return (", ".join("%.0f %%" % (100 * r["coverage"]) for r in rows) + " | "
-            + ", ".join("%.2f" % r["ratio"] for r in rows))

@@ -21,7 +21,7 @@ sandwich's mean increase when the error is added, measured by the same estimator
 refitted, the residual and the regressors holding the error, as the recording's own error enters
 it). Taken instead as the sandwich of the error's torque −m·ÿ − b·ẏ alone, it was 1.6–3.1× the
 recording's part of m's sandwich (the recording's sandwich less that of its exact-angle twin;
-section ``identify_intervals`` of ``benchmarks/RESULTS.md``, medians per encoder, elbows and
+section ``identify_intervals`` of ``benchmarks/RESULTS.md`` at 8d27b00, medians per encoder, elbows and
 wrists): the torque noise's part was taken off with it, and b's intervals held the truth in 86 %
 of the elbows and wrists of ``benchmarks/identify.py``. Measured as now it is 1.0–2.3× that part
 (0.9–2.2× for b). White angle noise is not simulated (see :func:`angle_error_effect`). Pure

@@ -193,8 +193,8 @@ def _with_robust_spread(post: Posterior, problem: MechanicsProblem, fit: Mechani
     then each scaled by a factor of the fixed-b limit of the Bartlett long-run variance
     (:mod:`limbstiff.mechanics.fixed_b`): their spread becomes a t distribution that is wider
     the larger the share of lags. Measured on 240 trials of ``benchmarks/identify.py``
-    (``benchmarks/identify_intervals.py``): 3 motion periods of lags are a median share of
-    0.063–0.145 of the steps (wrists to ankles), and the ankles' intervals of m held the truth in
+    (``benchmarks/identify_intervals.py``, at 8d27b00): 3 motion periods of lags are a median
+    share of 0.063–0.145 of the steps (wrists to ankles), and the ankles' intervals of m held the truth in
     81 % without the factors.
     """
     robust = robust_covariance(problem, fit.noise.logs(), np.array([fit.inertia, fit.damping]),
