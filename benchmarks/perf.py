@@ -32,8 +32,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _results import machine, update_section  # noqa: E402
 
 from limbstiff.analysis import analyze  # noqa: E402
-from limbstiff.estimate import estimators, kernels, observer, scan  # noqa: E402
-from limbstiff.estimate import kalman as kalman_model  # noqa: E402
+from limbstiff.estimate import estimators, observer, scan  # noqa: E402
+from limbstiff.statespace import kernels  # noqa: E402
+from limbstiff.statespace.noise import NoiseLevels  # noqa: E402
+from limbstiff.statespace.smoother import kalman_smoother  # noqa: E402
+from limbstiff.statespace.steps import deflection  # noqa: E402
 from limbstiff.filtered import filter_trial  # noqa: E402
 from limbstiff.protocol import Protocol  # noqa: E402
 from limbstiff.simulate import simulate  # noqa: E402
@@ -81,11 +84,11 @@ def passes() -> tuple[list[tuple[str, float]], float, dict]:
     out.append(("  the recursion alone, NumPy blocked scan", best(lambda: scan.linear_recursion(a, c))))
     z = sig.elastic_torque(m, b)
     d = np.diff(sig.angle, prepend=sig.angle[0])
-    noise = kalman_model.NoiseLevels(1e-2, 1e-1, 1.0, 1.0)
-    kw = dict(step=ts, deflection=kalman_model.deflection(sig.angle, step=ts, motion_frequency=sig.motion_hz), initial_mean=np.array([z[0], 60.0]), initial_cov=np.array([1.0, 0.0, 1e4]))
+    noise = NoiseLevels(1e-2, 1e-1, 1.0, 1.0)
+    kw = dict(step=ts, deflection=deflection(sig.angle, step=ts, motion_frequency=sig.motion_hz), initial_mean=np.array([z[0], 60.0]), initial_cov=np.array([1.0, 0.0, 1e4]))
 
     def kalman(loglik):
-        return kalman_model.kalman_smoother(d, z, noise, loglik=loglik, **kw)
+        return kalman_smoother(d, z, noise, loglik=loglik, **kw)
     out.append(("Kalman filter + RTS smoother, every sample, with the log-likelihood", best(lambda: kalman(True), 5)))
     out.append(("Kalman filter + RTS smoother, every sample (the responses to ÿ and ẏ: no log-likelihood)",
                 best(lambda: kalman(False), 5)))

@@ -24,7 +24,8 @@ from .estimate import estimators, observer
 from .estimate.angle_terms import AngleTerms
 from .estimate.course_draws import course_deviations
 from .estimate.informed import band_informed, uninformed_band
-from .estimate.kalman import NoiseLevels, step_index
+from .statespace.noise import NoiseLevels
+from .statespace.steps import kalman_decimation, step_index
 from .filtered import Filtered, filter_trial
 from .mechanics.identification import Identification, identify_mechanics
 from .protocol import Protocol
@@ -163,7 +164,7 @@ def _coupling(trial: Trial, filtered: Filtered) -> CouplingFit | None:
 
 def figure_samples_of(filtered: Filtered, observable: np.ndarray) -> FigureSamples:
     """The samples of a trial's figures: the Kalman model's steps (whichever estimator ran), thinned."""
-    decimation = estimators.kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
+    decimation = kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
     steps = step_index(len(filtered.angle), edge=filtered.edge, decimation=decimation)
     return figure_samples(steps, filtered.torque, observable, step=filtered.sample_period * decimation,
                           motion_frequency=filtered.motion_hz)

@@ -18,7 +18,7 @@ from .bandwidth import CornerScan
 from .checks import ModelChecks
 from .coupling import CouplingFit
 from .estimate.estimators import EstimatorFit
-from .estimate.kalman import NoiseLevels
+from .statespace.noise import NoiseLevels
 from .estimate.observer import informed_samples
 from .filtered import Filtered
 from .interval import Interval

@@ -134,7 +134,7 @@ def figure_samples(steps: np.ndarray, torque: np.ndarray, observable: np.ndarray
     Parameters
     ----------
     steps : ndarray of int, shape (m,)
-        Sample of each model step (:func:`~limbstiff.estimate.kalman.step_index`).
+        Sample of each model step (:func:`~limbstiff.statespace.steps.step_index`).
     torque : ndarray, shape (n,), N·m (N)
         The recorded (filtered) torque at every sample.
     observable : ndarray of bool, shape (n,)

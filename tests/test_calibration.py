@@ -8,10 +8,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from limbstiff.estimate import kalman
+from limbstiff.statespace.noise import NoiseLevels
+from limbstiff.statespace.smoother import kalman_smoother
+from limbstiff.statespace.steps import model_steps
 from limbstiff.estimate.course_draws import course_deviations
 from limbstiff.mechanics.fixed_b import bartlett_fixed_b
-from limbstiff.mechanics.likelihood import long_run_covariance
+from limbstiff.statespace.linear import long_run_covariance
 from limbstiff.trial_level import trial_level
 
 
@@ -24,9 +26,9 @@ def test_course_draws_have_the_smoothers_posterior_variance():
     t = np.arange(n) * step
     y = 0.1 * np.sin(2 * np.pi * 0.9 * t) + 0.04 * np.sin(2 * np.pi * 2.3 * t)
     z = np.cumsum(np.r_[0, 30 * np.diff(y)]) + rng.normal(0, 0.05, n)
-    st = kalman.model_steps(y, z, sample_period=step, decimation=1, edge=0, motion_frequency=0.9)
-    noise = kalman.NoiseLevels(0.05 ** 2, 1e-4, 20.0, 10.0)        # both kinds of stiffness walk
-    smoothed = kalman.kalman_smoother(st.increments, st.measured, noise, step=step, deflection=st.deflection,
+    st = model_steps(y, z, sample_period=step, decimation=1, edge=0, motion_frequency=0.9)
+    noise = NoiseLevels(0.05 ** 2, 1e-4, 20.0, 10.0)        # both kinds of stiffness walk
+    smoothed = kalman_smoother(st.increments, st.measured, noise, step=step, deflection=st.deflection,
                                       initial_mean=st.initial_mean, initial_cov=st.initial_cov)
     dev = course_deviations(st, noise, draws=2000, rng=np.random.default_rng(3), aligned=False)
     ratio = dev.var(axis=0) / smoothed.cov[:, 2]
@@ -181,7 +183,7 @@ def test_the_angle_errors_part_of_the_sandwich_is_not_counted_twice():
     # sandwich's own noise: the difference is then set to 0), so 0.05–2.5 here. The posterior's
     # spread of m then lies between the angle error's variance and that plus the whole sandwich.
     from limbstiff.analysis import identify_trial
-    from limbstiff.estimate.estimators import kalman_decimation
+    from limbstiff.statespace.steps import kalman_decimation
     from limbstiff.filtered import filter_trial
     from limbstiff.mechanics.likelihood import MechanicsProblem, robust_covariance
     from limbstiff.protocol import Protocol

@@ -291,41 +291,30 @@ def test_cli_bad_input_is_one_line_and_exit_status(tmp_path):
 # --- the nominal model: the analysis's Kalman model with the effects as measurement terms -------------
 
 def _steps(seed=4, channels=3, n=400):
-    from limbstiff.diagnosis.nominal import Steps
+    from limbstiff.statespace.steps import channel_steps
     rng = np.random.default_rng(seed)
     t = np.arange(n) * 0.02
     y = 0.1 * np.sin(2 * np.pi * 0.9 * t) + 0.05 * np.sin(2 * np.pi * 2.3 * t)
     torque = 40 * y + rng.normal(0, 0.2, n)
     chans = np.vstack([torque] + [rng.normal(0, 1, n) for _ in range(channels - 1)])
-    return Steps(angle=y, channels=chans, scale=torque, step=0.02, deflection=y - y.mean())
+    return channel_steps(y, chans, scale_from=torque, step=0.02, deflection=y - y.mean())
 
 
 def test_innovations_are_linear_in_the_channels():
     # the filter's gains do not depend on the data: the innovations of Σ w_c·channel_c are Σ w_c·e_c,
     # which is what lets every linear coefficient be fitted on the innovations (to rounding)
-    from limbstiff.estimate.kalman import NoiseLevels
-    from limbstiff.diagnosis.nominal import Steps
+    from limbstiff.statespace.linear import innovations
+    from limbstiff.statespace.noise import NoiseLevels
+    from limbstiff.statespace.steps import channel_steps
     st = _steps()
     noise = NoiseLevels(0.05, 0.01, 30.0, 10.0)
-    e, var = st.innovations(noise)
+    e, var = innovations(st, noise)
     w = np.array([1.0, -0.3, 0.7])
-    combined = Steps(angle=st.angle, channels=(w @ st.channels)[None], scale=st.scale, step=st.step,
-                     deflection=st.deflection)
-    e1, var1 = combined.innovations(noise)
+    combined = channel_steps(st.angle, (w @ st.channels)[None], scale_from=st.channels[0], step=st.step,
+                             deflection=st.deflection)
+    e1, var1 = innovations(combined, noise)
     np.testing.assert_allclose(e1[0], w @ e, atol=1e-9)
     np.testing.assert_allclose(var1, var)
-
-
-def test_marginal_likelihood_matches_the_identification():
-    # with two fitted columns it is exactly the identification's marginal likelihood of (m, b)
-    # (kernels.marginal_loglik, the quadratic form with m and b integrated out under a flat prior)
-    from limbstiff.statespace import kernels
-    from limbstiff.estimate.kalman import NoiseLevels
-    st = _steps()
-    noise = NoiseLevels(0.05, 0.01, 30.0, 10.0)
-    args = st._pass_args(noise)
-    expected = kernels.marginal_loglik(*args)[0]
-    assert st.marginal_loglik(noise) == pytest.approx(expected, rel=1e-10)
 
 
 def test_cli_diagnoses_several_trials_in_processes(tmp_path):

@@ -167,7 +167,7 @@ def test_compiled_kernels_equal_the_reference():
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
     chans, slopes = np.vstack([z, acc, vel]), np.array([0.3, 0.1, 0.2])
     args = (d, g, chans, slopes, 1e-3, 1e-4, 1e-2, 3e-2, 1.0, 4.0, np.zeros(n, dtype=bool))
-    for x, y in zip(kernels.marginal_loglik(*args), kernels.marginal_loglik.py_func(*args)):
+    for x, y in zip(kernels.kalman_quadratic(*args), kernels.kalman_quadratic.py_func(*args)):
         np.testing.assert_allclose(x, y, rtol=1e-9)
     # the quadratic form equals the direct two-state likelihood of z = f − m·ÿ − b·ẏ
     m, b = 0.05, 0.4
@@ -227,7 +227,8 @@ def test_angle_terms_recover_a_known_angle_dependence():
     are too slow to follow it: within 10 %). Without the term the Wald statistic stays below χ²₂'s
     0.1 % point (measured 5.2)."""
     from limbstiff.estimate.angle_terms import angle_regressors, fit_angle_terms
-    from limbstiff.estimate.kalman import NoiseLevels, model_steps
+    from limbstiff.statespace.noise import NoiseLevels
+    from limbstiff.statespace.steps import model_steps
     rng = np.random.default_rng(3)
     fs = 100.0
     t = np.arange(0, 60.0, 1 / fs)
@@ -252,7 +253,8 @@ def test_angle_terms_are_not_claimed_where_the_motion_cannot_tell_them_apart():
     """A joint held still: the terms add no torque (their regressors are zero), so their
     information matrix is singular — no fit (None), rather than a number from a singular matrix."""
     from limbstiff.estimate.angle_terms import fit_angle_terms
-    from limbstiff.estimate.kalman import NoiseLevels, model_steps
+    from limbstiff.statespace.noise import NoiseLevels
+    from limbstiff.statespace.steps import model_steps
     y = np.full(3000, 0.2)
     torque = 1.0 + 1e-3 * np.random.default_rng(0).standard_normal(3000)
     steps = model_steps(y, torque, sample_period=0.01, decimation=1, edge=0, motion_frequency=1.0)

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..coupling import ADEQUATE_CHI2, CouplingFit
 from ..estimate.angle_terms import AngleTerms
-from ..estimate.kalman import NoiseLevels
+from ..statespace.noise import NoiseLevels
 from ..estimate.observer import informed_samples
 from ..filtered import Filtered
 from ..mechanics.identification import Identification

@@ -20,9 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..statespace import kernels
-from ..estimate.estimators import kalman_decimation
 from ..estimate.angle_terms import AngleTerms, fit_angle_terms
-from ..estimate.kalman import ModelSteps, NoiseLevels, kalman_smoother, model_steps
+from ..statespace.noise import NoiseLevels
+from ..statespace.smoother import kalman_smoother
+from ..statespace.steps import ModelSteps, kalman_decimation, model_steps
 from ..statespace.noise import noise_bounds
 from ..filtered import Filtered
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..estimate.kalman import NoiseLevels
+from ..statespace.noise import NoiseLevels
 from ..filtered import FilterChain, Filtered
 from ..trial import Trial
 

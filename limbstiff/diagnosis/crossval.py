@@ -20,7 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..estimate.kalman import NoiseLevels, deflection
+from ..statespace.noise import NoiseLevels
+from ..statespace.linear import innovations
+from ..statespace.steps import ModelSteps, channel_steps, deflection
 from . import nominal
 from .channels import Channels
 from .kinds import ModelEffect
@@ -134,7 +136,7 @@ def _signature(components) -> tuple:
     return tuple((e.name, tuple(sorted(s.items()))) for e, s in components)
 
 
-def _composed(problem: Problem, i: int, components, keep: bool = True) -> tuple[Channels, nominal.Steps]:
+def _composed(problem: Problem, i: int, components, keep: bool = True) -> tuple[Channels, ModelSteps]:
     """Trial ``i``'s channels corrected by the model's effects, and the model's data at its steps:
     target, m and b columns when identified, the effects' regressors (cached per model when
     ``keep``)."""
@@ -145,16 +147,16 @@ def _composed(problem: Problem, i: int, components, keep: bool = True) -> tuple[
         ch, regs = compose(ch0, components)
         rows = lay.rows
         chans = [ch.target()[None, rows], ch.nuisance_columns(rows)] + [r[:, rows] for r in regs]
-        hit = (ch, nominal.Steps(angle=ch.angle[rows], channels=np.vstack(chans), scale=ch0.torque[rows],
-                                 step=lay.step_s, deflection=deflection(ch.angle[rows], step=lay.step_s,
-                                                                        motion_frequency=ch.motion_hz)))
+        hit = (ch, channel_steps(ch.angle[rows], np.vstack(chans), scale_from=ch0.torque[rows], step=lay.step_s,
+                                 deflection=deflection(ch.angle[rows], step=lay.step_s, motion_frequency=ch.motion_hz),
+                                 index=rows))
         if keep:
             problem.cache[key] = hit
     return hit
 
 
 def trial_steps(problem: Problem, i: int, components, effect: ModelEffect | None = None,
-                shape: dict | None = None) -> nominal.Steps:
+                shape: dict | None = None) -> ModelSteps:
     """The model's data at trial ``i``'s steps, with the candidate ``effect`` at ``shape`` last.
 
     A candidate's regressors are cached per shape (their full-rate evaluation is the costly
@@ -169,8 +171,8 @@ def trial_steps(problem: Problem, i: int, components, effect: ModelEffect | None
     regs = problem.cache.get(key)
     if regs is None:
         regs = problem.cache[key] = effect.evaluate(ch, shape).regressors[:, problem.layouts[i].rows]
-    return nominal.Steps(angle=base.angle, channels=np.vstack([base.channels, regs]), scale=base.scale,
-                         step=base.step, deflection=base.deflection)
+    return channel_steps(base.angle, np.vstack([base.channels, regs]), step=base.step, deflection=base.deflection,
+                         scale_from=problem.channels[i].torque[problem.layouts[i].rows], index=base.index)
 
 
 def _noise(problem: Problem, components, effect=None, shape=None, start=None) -> list[NoiseLevels]:
@@ -240,7 +242,7 @@ def design(problem: Problem, components, noise, effect: ModelEffect | None = Non
     for i, (st, k) in enumerate(zip(per, n_own)):
         sl = problem.trial_rows(i)
         blocks.append((sl, np.r_[col:col + k, k_own:k_own + n_shared]))
-        e, var = st.innovations(noise[i])
+        e, var = innovations(st, noise[i])
         target[sl], weight[sl] = e[0], 1.0 / np.sqrt(var)
         columns[sl, col:col + k] = e[1:1 + k].T
         columns[sl, k_own:] = e[1 + k:].T

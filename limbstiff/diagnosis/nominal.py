@@ -1,7 +1,7 @@
 """The nominal model of the diagnosis: the analysis's own time-varying Kalman model.
 
 The stiffness analysis models the torque left to the elastic element as a state that follows
-the angle with a stiffness walking in time (:mod:`limbstiff.estimate.kalman`):
+the angle with a stiffness walking in time (:mod:`limbstiff.statespace`):
 
     s[k] = s[k−1] + σ[k−1]·(y[k] − y[k−1]) + w_s,   σ[k] = σ[k−1] + w_σ,
     z[k] = f[k] − m·ÿ[k] − b·ẏ[k] − Σ_j a_j·φ_j[k] = s[k] + v,
@@ -31,15 +31,13 @@ no I/O.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
-from ..statespace import kernels
-from ..estimate.estimators import kalman_decimation
-from ..estimate.kalman import NoiseLevels, initial_cov, initial_slopes
-from ..statespace.noise import nelder_mead, noise_bounds
 from ..estimate.observer import informed_samples
+from ..statespace.linear import marginal
+from ..statespace.noise import NoiseLevels, nelder_mead, noise_bounds
+from ..statespace.steps import ModelSteps, kalman_decimation
 from .channels import Channels
 
 #: Scoring units per time window of the "where" analysis.
@@ -152,67 +150,7 @@ def layout(ch: Channels, *, blocks: int) -> Layout:
                   step_s=step_s)
 
 
-@dataclass(frozen=True)
-class Steps:
-    """The Kalman model's data at one trial's steps, for one model.
-
-    Parameters
-    ----------
-    angle : ndarray, shape (r,), rad
-        y at the steps (the increments drive the filter).
-    channels : ndarray, shape (c, r)
-        The target z (f − m·ÿ − b·ẏ with m and b given, f when they are identified), then the
-        columns whose coefficients are fitted (N·m per unit coefficient).
-    scale : ndarray, shape (r,), N·m
-        The recorded torque, whose size sets the filter's diffuse start (not z: it does not change
-        with the model).
-    step : float, s
-    deflection : ndarray, shape (r,), rad
-        The spring's deflection at the steps (:func:`~limbstiff.estimate.kalman.deflection`).
-    """
-
-    angle: np.ndarray
-    channels: np.ndarray
-    scale: np.ndarray
-    step: float
-    deflection: np.ndarray
-
-    @cached_property
-    def _prepared(self) -> tuple:
-        """What every filter pass shares: increments, each channel's initial slope, the diffuse
-        initial variances (the analysis's, sized on the recorded torque)."""
-        y = self.angle
-        p11, _, p22 = initial_cov(y, self.scale)
-        return (np.diff(y, prepend=y[0]), np.ascontiguousarray(self.channels), initial_slopes(y, self.channels),
-                p11, p22, np.zeros(len(y), dtype=bool))
-
-    def _pass_args(self, noise: NoiseLevels):
-        d, chans, slopes, p11, p22, restart = self._prepared
-        return (d, np.ascontiguousarray(self.deflection, dtype=float), chans, slopes, *noise.per_step(self.step),
-                p11, p22, restart)
-
-    def innovations(self, noise: NoiseLevels) -> tuple[np.ndarray, np.ndarray]:
-        """Each channel's innovations (c, r) and their common variance S (r,), (N·m)²."""
-        return kernels.kalman_channel_innovations(*self._pass_args(noise))
-
-    def marginal_loglik(self, noise: NoiseLevels) -> float:
-        """Log-likelihood of the noise levels with every fitted coefficient integrated out (flat
-        prior): −½·(n·ln 2π + Σ ln S + q_min) + (p/2)·ln 2π − ½·ln det A_pp, where A is the
-        innovations' quadratic form (:func:`kernels.kalman_quadratic`) and q_min its minimum over
-        the coefficients. −inf when the data do not determine them."""
-        sls, a = kernels.kalman_quadratic(*self._pass_args(noise))
-        n, p = self.channels.shape[1], self.channels.shape[0] - 1
-        if p == 0:
-            return float(-0.5 * (n * np.log(2 * np.pi) + sls + a[0, 0]))
-        app, ap0 = a[1:, 1:], a[1:, 0]
-        sign, logdet = np.linalg.slogdet(app)
-        if sign <= 0:
-            return -np.inf
-        q_min = a[0, 0] - ap0 @ np.linalg.solve(app, ap0)
-        return float(-0.5 * (n * np.log(2 * np.pi) + sls + q_min) + 0.5 * p * np.log(2 * np.pi) - 0.5 * logdet)
-
-
-def fit_noise(steps: Steps, *, start: NoiseLevels, motion_hz: float) -> NoiseLevels:
+def fit_noise(steps: ModelSteps, *, start: NoiseLevels, motion_hz: float) -> NoiseLevels:
     """Noise levels of the model by maximum marginal likelihood.
 
     Nelder–Mead on the log levels within the analysis's bounds
@@ -227,12 +165,12 @@ def fit_noise(steps: Steps, *, start: NoiseLevels, motion_hz: float) -> NoiseLev
     differ by the optimiser, not by the effect.
     """
     z = steps.channels[0]
-    bounds = noise_bounds(float(np.var(z - z.mean())), float(np.sqrt(steps._prepared[4])), motion_hz)
+    bounds = noise_bounds(float(np.var(z - z.mean())), float(np.sqrt(steps.initial_cov[2])), motion_hz)
     lo, hi = np.array(bounds).T
     x0 = np.clip(start.logs(), lo, hi)
 
     def loglik(x):
-        value = steps.marginal_loglik(NoiseLevels(*np.exp(x)))
+        value = marginal(steps, NoiseLevels(*np.exp(x))).loglik
         return value if np.isfinite(value) else -np.inf
 
     grid = [np.array([r, x0[1], k, k]) for r in np.linspace(lo[0], hi[0], 5) for k in np.linspace(lo[2], hi[2], 5)]
@@ -240,7 +178,7 @@ def fit_noise(steps: Steps, *, start: NoiseLevels, motion_hz: float) -> NoiseLev
     return NoiseLevels(*np.exp(best))
 
 
-def start_noise(ch: Channels, steps: Steps) -> NoiseLevels:
+def start_noise(ch: Channels, steps: ModelSteps) -> NoiseLevels:
     """Where the noise fit starts: the analysis's levels, or sizes of the target when the
     analysis did not fit any (an observer estimator)."""
     if ch.noise is not None:

@@ -5,13 +5,13 @@ The model's stiffness walks slowly beside the motion (the noise bounds of
 a spring stiffening with the deflection, muscle yielding beyond its short-range stiffness, a
 reflex answering stretch one way — is averaged over the cycle. Written as
 
-    σ(t, g) = σ₀(t) + β₁·g + β₂·(g² − mean g²),     g the deflection (:func:`kalman.deflection`),
+    σ(t, g) = σ₀(t) + β₁·g + β₂·(g² − mean g²),     g the deflection (:func:`~limbstiff.statespace.steps.deflection`),
 
 the term adds to the torque left to the elastic element Σ β·h(g)·Δy over the steps
 (ds = σ·dy). The filter is linear in the data, so β follows by generalised least squares of the
 standardised innovations of z on those of the two regressors, all from one filter pass
-(:func:`~limbstiff.statespace.kernels.kalman_channel_innovations`), with the sandwich covariance
-over :data:`~limbstiff.mechanics.likelihood.LONG_RUN_PERIODS` motion periods (as the
+(:func:`~limbstiff.statespace.linear.innovations`), with the sandwich covariance
+over :data:`~limbstiff.statespace.linear.LONG_RUN_PERIODS` motion periods (as the
 identification's: correlated residuals do not make β significant). Pure numpy: no I/O.
 """
 
@@ -21,8 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..statespace import kernels
-from .kalman import ModelSteps, NoiseLevels, at_steps, initial_slopes, kalman_smoother
+from ..statespace.linear import innovations, sandwich_covariance
+from ..statespace.noise import NoiseLevels
+from ..statespace.smoother import at_steps, kalman_smoother
+from ..statespace.steps import ModelSteps
 
 
 @dataclass(frozen=True)
@@ -104,15 +106,10 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
     AngleTerms or None
         None when the motion cannot tell the terms apart (:data:`MAX_CONDITION`).
     """
-    from ..mechanics.likelihood import sandwich_covariance
-
     U, H = angle_regressors(steps)
-    slopes = initial_slopes(steps.angle, U)
-    e, s = kernels.kalman_channel_innovations(steps.increments, steps.deflection,
-                                              np.ascontiguousarray(np.vstack([steps.measured, U])),
-                                              np.concatenate([[steps.initial_mean[1]], slopes]),
-                                              *noise.per_step(steps.step), steps.initial_cov[0], steps.initial_cov[2],
-                                              np.zeros(len(steps.measured), dtype=bool))
+    with_terms = steps.with_channels(U)
+    slopes = with_terms.slopes[1:]
+    e, s = innovations(with_terms, noise)
     e = e / np.sqrt(s)
     x, eps = e[1:].T, e[0]
     information = x.T @ x

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kalman import ModelSteps, NoiseLevels, at_steps, kalman_smoother
+from ..statespace.noise import NoiseLevels
+from ..statespace.smoother import at_steps, kalman_smoother
+from ..statespace.steps import ModelSteps
 
 #: Most numbers per simulated array of a block of draws (2·10⁶ float64: 16 MB each).
 BLOCK_VALUES = 2_000_000
@@ -34,7 +36,7 @@ def course_deviations(steps: ModelSteps, noise: NoiseLevels, *, draws: int, rng:
     draws : int
     rng : numpy.random.Generator
     aligned : bool
-        Aligned like the estimate (:func:`kalman.at_steps`), or the state σ[k] itself.
+        Aligned like the estimate (:func:`~limbstiff.statespace.smoother.at_steps`), or the state σ[k] itself.
     columns : ndarray of int, shape (c,), optional
         The steps to keep (default all).
 

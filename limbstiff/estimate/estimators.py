@@ -19,15 +19,9 @@ import numpy as np
 from ..filtered import Filtered
 from ..protocol import ESTIMATORS  # noqa: F401  (the names, defined once with the protocol)
 from . import observer
-from .kalman import ModelSteps, NoiseLevels, kalman_stiffness
-
-#: Kalman steps per period of the low-pass corner: 1.25 puts the step rate at 2.5× the corner,
-#: just above the Nyquist rate of the filtered band, so that the filtered noise is close to
-#: white from step to step as the model assumes. Finer steps let correlated residuals (a
-#: stretch reflex, filtered noise) pass for stiffness changes: on the real ankle data, steps of
-#: 1 ms drove the noise fit to a degenerate optimum (R → 0), and in the simulated benchmark 1.25
-#: and 2 gave the same accuracy while 4 and above lost it.
-KALMAN_STEPS_PER_CORNER_PERIOD = 1.25
+from ..statespace.noise import NoiseLevels
+from ..statespace.steps import ModelSteps, kalman_decimation
+from .kalman import kalman_stiffness
 
 
 @dataclass(frozen=True)
@@ -88,13 +82,6 @@ class Estimate:
         g = self.sensitivity
         c = np.asarray(covariance)
         return self.variance + c[0, 0] * g[0] ** 2 + 2 * c[0, 1] * g[0] * g[1] + c[1, 1] * g[1] ** 2
-
-
-def kalman_decimation(sample_period: float, cutoff_hz: float | None) -> int:
-    """Samples per Kalman step: :data:`KALMAN_STEPS_PER_CORNER_PERIOD` steps per corner period."""
-    if cutoff_hz is None:
-        return 1
-    return max(1, int(1.0 / (sample_period * KALMAN_STEPS_PER_CORNER_PERIOD * 2 * cutoff_hz)))
 
 
 def kalman(filtered: Filtered, *, inertia: float | None = None, damping: float | None = None,

@@ -1,7 +1,7 @@
 """The long-run covariance's own error: fixed-b theory for the Bartlett kernel.
 
 A sandwich covariance whose long-run part is estimated from n fitted residuals over L lags
-(:func:`limbstiff.mechanics.likelihood.long_run_covariance`) is biased low and random when the
+(:func:`limbstiff.statespace.linear.long_run_covariance`) is biased low and random when the
 share b = L/n is not small: residuals fitted by least squares sum to zero against the regressors,
 so the long lags see less than the truth, and the few blocks of length L make the estimate noisy.
 Kiefer & Vogelsang (2005, Econometric Theory 21:1130) give the limit of the t statistic with such

@@ -14,11 +14,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import TrialError
-from ..estimate.estimators import kalman_decimation
-from ..estimate.kalman import NoiseLevels
 from ..filtered import Filtered
 from ..interval import Interval
 from ..protocol import Protocol
+from ..statespace.noise import NoiseLevels
+from ..statespace.steps import kalman_decimation
 from .angle_error import NO_EFFECT, AngleErrorEffect, angle_error_effect
 from .least_squares import LeastSquaresFit, least_squares
 from .fixed_b import bartlett_fixed_b

@@ -1,6 +1,6 @@
 """Posterior of inertia, damping and the noise levels by emcee, with its quality checked.
 
-The likelihood is the Kalman model's exact one (:mod:`limbstiff.estimate.kalman`). Parameters
+The likelihood is the Kalman model's exact one (:mod:`limbstiff.statespace`). Parameters
 θ = (m, b, ln R, ln Q_s, ln Q_σ, ln Q_c): m and b carry the protocol's priors (default: flat on
 m, b > 0) and are integrated exactly given the noise levels; the log noise levels are flat
 within :func:`limbstiff.statespace.noise.noise_bounds` and sampled by emcee. The chain runs in blocks until it is at least
@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..estimate import kalman as smoothing
+from ..statespace.noise import NoiseLevels
 from ..protocol import Prior
 
 #: The chain must be this many autocorrelation times long (emcee's recommendation: ≥ 50).
@@ -93,9 +93,9 @@ class Posterior:
         lo, med, hi = np.quantile(self.draws[:, j], [0.5 - level / 2, 0.5, 0.5 + level / 2])
         return float(med), float(lo), float(hi)
 
-    def noise_levels(self) -> smoothing.NoiseLevels:
+    def noise_levels(self) -> NoiseLevels:
         """Posterior median of the noise levels."""
-        return smoothing.NoiseLevels(*np.exp(np.median(self.draws[:, 2:], axis=0)))
+        return NoiseLevels(*np.exp(np.median(self.draws[:, 2:], axis=0)))
 
     def to_frame(self):
         """The draws as a :class:`pandas.DataFrame` (one column per parameter)."""

@@ -11,7 +11,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..interval import Interval
-from ..estimate.kalman import NoiseLevels
+from ..statespace.noise import NoiseLevels
 from ..mechanics.posterior import prior_density
 from ..protocol import Prior
 from .common import FONT, fmt, grid, new_page, text_panel

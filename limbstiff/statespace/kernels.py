@@ -9,8 +9,8 @@ environment variable ``LIMBSTIFF_NO_JIT=1``, the same source runs in CPython. Th
 Kernels: the first-order linear recursion of the observer; the two-state Kalman model's covariance step, written once (:func:`_predict`,
 :func:`_update`) and used by the filter (log-likelihood only, or with its moments), the
 Rauch–Tung–Striebel smoother (in place) and the filter pass over several measurement channels
-whose likelihood is quadratic in their weights (inertia and damping,
-:mod:`limbstiff.mechanics.likelihood`).
+whose likelihood is quadratic in their weights (any linear coefficients,
+:mod:`limbstiff.statespace.linear`).
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def _observe(zi, r, s, k, p11, p12, p22):
 
 
 def kalman_loglik(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22):
-    """Log-likelihood of the model of :mod:`limbstiff.estimate.kalman` (prediction-error
+    """Log-likelihood of the model of :mod:`limbstiff.statespace` (prediction-error
     decomposition); the filter pass of :func:`kalman_filter` keeping no moments."""
     n = z.shape[0]
     loglik = 0.0
@@ -243,7 +243,7 @@ def kalman_quadratic(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart):
     Parameters
     ----------
     d : (n,) increments of y
-    g : (n,) deflection of the spring at each step (:func:`limbstiff.estimate.kalman.deflection`)
+    g : (n,) deflection of the spring at each step (:func:`limbstiff.statespace.steps.deflection`)
     chans : (c, n) measurement channels
     slopes : (c,) initial σ of each channel (its least-squares slope on y)
     r, qs, qk, qc : noise variances per step
@@ -268,28 +268,6 @@ def kalman_quadratic(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart):
     return sum_log_s, a
 
 
-def marginal_loglik(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart):
-    """Log-likelihood of the noise levels with the weights of channels 1 and 2 (−m, −b)
-    integrated out under a flat prior, and their Gaussian posterior (see
-    :func:`kalman_quadratic`). Returns (loglik, m, b, var_m, cov_mb, var_b); loglik is −inf
-    when the data do not determine m and b."""
-    sls, a = kalman_quadratic(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart)
-    h1 = a[0, 1]
-    h2 = a[0, 2]
-    det = a[1, 1] * a[2, 2] - a[1, 2] * a[1, 2]
-    if not det > 0.0:
-        return -np.inf, np.nan, np.nan, np.nan, np.nan, np.nan
-    c11 = a[2, 2] / det
-    c12 = -a[1, 2] / det
-    c22 = a[1, 1] / det
-    m = c11 * h1 + c12 * h2
-    b = c12 * h1 + c22 * h2
-    q_min = a[0, 0] - (h1 * m + h2 * b)
-    n = chans.shape[1]
-    loglik = -0.5 * (n * math.log(2.0 * math.pi) + sls + q_min) + math.log(2.0 * math.pi) - 0.5 * math.log(det)
-    return loglik, m, b, c11, c12, c22
-
-
 def _compile():
     if os.environ.get("LIMBSTIFF_NO_JIT", "") not in ("", "0"):
         return False
@@ -300,8 +278,7 @@ def _compile():
     g = globals()
     # callees first, so that the compiled callers call compiled code
     for name in ("_predict", "_update", "_advance", "_observe", "linear_recursion", "kalman_filter", "kalman_innovations", "kalman_loglik",
-                 "rts_smoother", "kalman_channel_innovations", "kalman_quadratic",
-                 "marginal_loglik"):
+                 "rts_smoother", "kalman_channel_innovations", "kalman_quadratic"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True
 

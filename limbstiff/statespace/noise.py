@@ -1,5 +1,5 @@
-"""Searching the noise levels of the Kalman model: their bounds and a Nelder–Mead search over their
-logarithms.
+"""The noise levels of the state-space model: what they are, their bounds, and a Nelder–Mead
+search over their logarithms.
 
 The likelihood is given as a function of the log levels, so the same search serves the analysis's
 fit (:func:`limbstiff.estimate.kalman.fit_noise_levels`), the identification's marginal likelihood
@@ -9,7 +9,55 @@ Pure numpy/scipy: no I/O.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+
+
+@dataclass(frozen=True)
+class NoiseLevels:
+    """Variances of the state-space model (:mod:`limbstiff.statespace`).
+
+    Parameters
+    ----------
+    measurement : float, (N·m)²
+        R: variance of the torque left to the elastic element, per (decimated) sample.
+    torque_walk : float, (N·m)²/s
+        Q_s: intensity of elastic-torque changes not explained by σ·dy (s_u·u̇ of the paper).
+    stiffness_walk : float, (N·m/rad)²/s
+        Q_σ: intensity of the stiffness walk that has no torque of its own (angle-driven).
+    coupled_walk : float, (N·m/rad)²/s
+        Q_c: intensity of the stiffness walk that moves the torque of the deflected spring.
+    """
+
+    measurement: float
+    torque_walk: float
+    stiffness_walk: float
+    coupled_walk: float
+
+    def to_dict(self) -> dict:
+        return {"measurement": self.measurement, "torque_walk": self.torque_walk,
+                "stiffness_walk": self.stiffness_walk, "coupled_walk": self.coupled_walk}
+
+    @staticmethod
+    def units(torque: str, stiffness: str) -> dict[str, str]:
+        """Unit of each level of :meth:`to_dict`, given the trial's torque and stiffness units."""
+        return {"measurement": f"({torque})²", "torque_walk": f"({torque})²/s",
+                "stiffness_walk": f"({stiffness})²/s", "coupled_walk": f"({stiffness})²/s"}
+
+    def logs(self) -> np.ndarray:
+        """ln (R, Q_s, Q_σ, Q_c), shape (4,): the coordinates the noise fits and the sampler work in."""
+        return np.log([self.measurement, self.torque_walk, self.stiffness_walk, self.coupled_walk])
+
+    @classmethod
+    def from_logs(cls, logs) -> "NoiseLevels":
+        """The levels whose logarithms are ``logs`` (shape (4,))."""
+        return cls(*np.exp(np.asarray(logs, dtype=float)))
+
+    def per_step(self, step: float) -> tuple[float, float, float, float]:
+        """(R, Q_s·Δt, Q_σ·Δt, Q_c·Δt): the variances per step the kernels take."""
+        return (float(self.measurement), float(self.torque_walk * step), float(self.stiffness_walk * step),
+                float(self.coupled_walk * step))
 
 
 def noise_bounds(measured_variance: float, stiffness_scale: float, motion_frequency: float) -> list:
