@@ -17,6 +17,7 @@ from .frozen import FrozenDict
 from typing import Any, Mapping
 
 from .errors import ProtocolError
+from .units import UNITS
 
 QUANTITIES = ("time", "angle", "torque", "elastic_torque", "stiffness_true")
 VARIANTS = ("auto", "external", "direct")
@@ -334,7 +335,6 @@ def _check(p: Protocol) -> None:
         raise ProtocolError(where, f"'ci_level' must be a number between 0 and 1, not {p.ci_level!r}")
     for label, prior in (("inertia", p.inertia_prior), ("damping", p.damping_prior)):
         _check_prior(where, label, prior)
-    from .files.units import UNITS
     for quantity, column in p.columns.items():
         if column.unit is not None and column.unit not in UNITS:
             raise ProtocolError(where, f"unknown unit '{column.unit}' for {quantity} in [columns.{quantity}]")

@@ -26,14 +26,9 @@ from .mechanics.identification import Identification
 from .mechanics.posterior import Posterior
 from .provenance import dependency_versions, settings_hash
 from .trial import Trial
-from .trial_level import TrialLevel
+from .trial_level import REFERENCE_SKIP_S, TrialLevel
 
 __all__ = ["StiffnessResult", "DerivedSettings", "Interval", "software"]
-
-#: Seconds at the start of a trial left out of the error against a reference (the estimators'
-#: start-up transient).
-REFERENCE_SKIP_S = 2.0
-
 
 @dataclass(frozen=True)
 class DerivedSettings:

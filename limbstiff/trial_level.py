@@ -23,6 +23,10 @@ from scipy.ndimage import uniform_filter1d
 
 from .interval import Interval
 
+#: Seconds at the start of a trial left out of the error against a reference (the estimators'
+#: start-up transient).
+REFERENCE_SKIP_S = 2.0
+
 #: Background torque: the torque's moving average over this many motion periods.
 BACKGROUND_PERIODS = 4.0
 #: Course draws for the trial-level intervals: the 5 % and 95 % quantiles of 400 draws have a

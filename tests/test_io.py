@@ -16,7 +16,7 @@ from limbstiff.errors import TrialError
 from limbstiff.files import UNITS, atomic_write_bytes, atomic_write_text, read_trial, sha256_file, write_trial
 from limbstiff.files import atomic as atomic_module
 from limbstiff.files.atomic import atomic_output
-from limbstiff.files.units import parse_standard_header, to_si, unit_in_header
+from limbstiff.units import parse_standard_header, to_si, unit_in_header
 from limbstiff.protocol import protocol_from_dict
 from limbstiff.trial import MIN_SAMPLES, Trial
 

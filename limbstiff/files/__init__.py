@@ -20,7 +20,7 @@ from __future__ import annotations
 from .atomic import atomic_output, atomic_write_bytes, atomic_write_text, sha256_file
 from .trial_csv import write_trial
 from .read import EXTENSIONS, read_trial
-from .units import UNITS
+from ..units import UNITS
 
 __all__ = ["read_trial", "write_trial", "EXTENSIONS", "UNITS", "atomic_write_text", "atomic_write_bytes",
            "atomic_output", "sha256_file"]

@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import TrialError
 from ..trial import Trial
 from .columns import ColumnSpec, check_unit, joint_kind
-from .units import FIELD_DIMENSIONS, FIELDS, UNITS, to_si
+from ..units import FIELD_DIMENSIONS, FIELDS, UNITS, to_si
 from .validate import checked_trial
 
 INSTALL_HINT = "pip install 'limbstiff[c3d]'"

@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import NamedTuple, Sequence
 
 from ..errors import TrialError
-from .units import (DIMENSION_KIND, FIELD_DIMENSIONS, FIELDS, STANDARD_QUANTITIES, UNITS,
+from ..units import (DIMENSION_KIND, FIELD_DIMENSIONS, FIELDS, STANDARD_QUANTITIES, UNITS,
                     accepted_units, parse_standard_header, same_unit, unit_in_header)
 
 _LABELS = {"time": "time", "angle": "angle/position", "torque": "torque/force",
@@ -24,13 +24,13 @@ class ColumnSpec(NamedTuple):
     Parameters
     ----------
     field : str
-        Trial field (see :data:`~limbstiff.files.units.FIELDS`).
+        Trial field (see :data:`~limbstiff.units.FIELDS`).
     header : str
         Column header (or variable name, or MAT path) in the file.
     index : int
         0-based position of that header in the list given to :func:`resolve_columns`.
     unit : str
-        Unit of the values in the file (a key of :data:`~limbstiff.files.units.UNITS`).
+        Unit of the values in the file (a key of :data:`~limbstiff.units.UNITS`).
     scale : float
         Factor applied after conversion to SI units.
     """

@@ -12,7 +12,7 @@ import re
 from typing import NamedTuple
 
 from ..errors import TrialError
-from .units import UNITS
+from ..units import UNITS
 
 DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+(?:[eE][-+]?\d+)?$")
 _QUOTED = re.compile(r'"[^"]*"')

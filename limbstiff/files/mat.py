@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import TrialError
 from ..trial import Trial
 from .columns import ColumnSpec, joint_kind, resolve_columns
-from .units import FIELDS, parse_standard_header, to_si
+from ..units import FIELDS, parse_standard_header, to_si
 from .validate import checked_trial
 
 #: Names (any case) of scalar variables giving the sample rate in Hz.

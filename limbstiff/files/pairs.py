@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import TrialError
-from .units import DIMENSION_KIND, UNITS, parse_standard_header, to_si, unit_in_header
+from ..units import DIMENSION_KIND, UNITS, parse_standard_header, to_si, unit_in_header
 
 _DISPLACEMENT = ("position", "angle")
 _FORCE = ("elastic_force", "force", "elastic_torque", "torque")

@@ -29,7 +29,7 @@ from ..errors import TrialError
 from ..trial import Trial
 from .columns import ColumnSpec, joint_kind, resolve_columns
 from .dialect import DECIMAL_COMMA, SNIFF_LINES, detect_layout
-from .units import FIELDS, to_si
+from ..units import FIELDS, to_si
 from .validate import checked_trial
 
 _NAN_WORDS = {"nan", "-nan", "+nan", "na", "n/a", "#n/a", "null", "none"}

@@ -13,7 +13,7 @@ import pandas as pd
 
 from ..trial import Trial
 from .atomic import atomic_write_text
-from .units import FIELDS
+from ..units import FIELDS
 
 _HEADERS = {
     "rotational": ("time_s", "angle_rad", "torque_Nm", "elastic_torque_Nm", "stiffness_true_Nm_per_rad"),

@@ -14,7 +14,7 @@ import textwrap
 import numpy as np
 
 from ..digest import headline_rows, recording_rows, verdict_line
-from ..result import REFERENCE_SKIP_S
+from ..trial_level import REFERENCE_SKIP_S
 from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, ROW_SPACING, envelope, envelope_band, fmt, grid,
                      key_value_lines, new_page, robust_limits, shade_false, text_panel)
 from .plots import names, plot_relation, plot_stiffness, recorded_torque

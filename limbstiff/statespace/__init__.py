@@ -1,4 +1,32 @@
-"""The state-space (Kalman) model every estimate, identification, check and diagnosis uses.
+"""The state-space (Kalman) model of a recording, written once for every user.
 
-See :mod:`limbstiff.statespace.steps` for the model's equations.
+One step per (decimated) sample k:
+
+    s[k] = s[k−1] + σ[k−1]·(y[k] − y[k−1]) + g[k]·w_c + w_s    elastic torque: ds = σ·dy
+    σ[k] = σ[k−1] + w_σ + w_c                                    stiffness: a random walk
+    c₀[k] − Σ_j β_j·c_j[k] = s[k] + v                            measurement
+
+with w_s ~ N(0, Q_s·Δt), w_σ ~ N(0, Q_σ·Δt), w_c ~ N(0, Q_c·Δt), v ~ N(0, R) (the levels:
+:class:`~limbstiff.statespace.noise.NoiseLevels`), g the spring's deflection. The measurement is
+the torque c₀ less the columns c_j whose coefficients β_j enter linearly: ÿ and ẏ with (m, b) in
+the identification, an effect's torque with its amplitude in the diagnosis, nothing (z given) in
+the estimator. The filter's covariance does not depend on the data, so one pass over all channels
+gives the likelihood as a quadratic form in (1, −β) and the β integrate out exactly.
+
+Modules (one idea each):
+
+- :mod:`.noise` — the noise levels, their bounds, the search over their logarithms;
+- :mod:`.steps` — :class:`~.steps.ModelSteps`, the model's data at its steps, and its builders;
+- :mod:`.smoother` — log-likelihood, the causal (forward) filter, the RTS smoother, the stiffness
+  state placed back on the samples;
+- :mod:`.linear` — the linear coefficients: innovations, the marginal likelihood with any number
+  of them integrated out, their sandwich covariance;
+- :mod:`.kernels` — the loops, compiled with numba.
+
+What it is built to carry next: a stiffness that is a smooth function of a cycle's phase or of a
+recorded variable, σ = Σ_j β_j·φ_j(·) + walk, adds to the torque Σ_j β_j·Σ_k φ_j·Δy — a column per
+basis function, so its weights are linear coefficients like m and b (:func:`.linear.marginal`);
+a live estimate is the forward pass (:func:`.smoother.kalman_filter`), which can be run in pieces.
+Pure numpy and scipy: no I/O. Below estimation, identification, checks, the corner scan and the
+diagnosis (docs/architecture.md, "Layering").
 """
