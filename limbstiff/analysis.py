@@ -15,6 +15,7 @@ import numpy as np
 from scipy import stats
 
 from . import bandwidth
+from .blas_threads import one_blas_thread
 from .coupling import MAX_CORRECTION, CouplingFit, detect_coupling
 from .checks import check_analysis
 from .checks.analysis import sign_hint
@@ -76,6 +77,7 @@ def filter_for_model(trial: Trial, protocol: Protocol) -> tuple[Filtered, bandwi
     return (filtered if filtered is not None else filter_trial(trial, protocol, corner_hz=scan.chosen_hz)), scan
 
 
+@one_blas_thread
 def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int = 0) -> Identification:
     """Identify inertia and damping of one trial only (``limbstiff identify``).
 
@@ -291,6 +293,7 @@ def _warnings(trial: Trial, ident: Identification | None, observable: np.ndarray
     return tuple(warnings)
 
 
+@one_blas_thread
 def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | None = None,
             damping: float | None = None, observer_gain: float | None = None,
             estimator: str | None = None, seed: int = 0,
