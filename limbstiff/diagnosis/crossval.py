@@ -40,7 +40,7 @@ class Problem:
     Parameters
     ----------
     channels : tuple of Channels
-    layouts : tuple of nominal.Layout
+    layouts : tuple of nominal.ScoringLayout
     guard_s : float, s
     fold, unit, trial : ndarray of int, shape (R,)
         Per step (all trials concatenated): held-out block, global unit id (−1: not scored) and

@@ -73,7 +73,7 @@ def effective_cutoff(ch: Channels) -> float:
 
 
 @dataclass(frozen=True)
-class Layout:
+class ScoringLayout:
     """Which samples of one trial are the model's steps and how they are grouped.
 
     Parameters
@@ -112,7 +112,7 @@ class Layout:
         return int(self.segment.max()) + 1
 
 
-def layout(ch: Channels, *, blocks: int) -> Layout:
+def layout(ch: Channels, *, blocks: int) -> ScoringLayout:
     """Steps, units and held-out blocks of one trial.
 
     Parameters
@@ -145,7 +145,7 @@ def layout(ch: Channels, *, blocks: int) -> Layout:
     for s, units in enumerate(np.array_split(np.arange(n_units), min(blocks, n_units))):
         segment[np.isin(unit, units)] = s
     window = np.maximum(unit, 0) // UNITS_PER_WINDOW
-    return Layout(trial=ch.name, rows=rows, scored=unit >= 0, unit=unit, window=window, segment=segment,
+    return ScoringLayout(trial=ch.name, rows=rows, scored=unit >= 0, unit=unit, window=window, segment=segment,
                   decimation=decimation, unit_s=unit_rows * step_s, window_s=UNITS_PER_WINDOW * unit_rows * step_s,
                   step_s=step_s)
 
@@ -202,7 +202,7 @@ def filter_power(freq: np.ndarray, ch: Channels) -> np.ndarray:
     return 1.0 / (1.0 + (freq / ch.cutoff_hz) ** 8) ** 2
 
 
-def noise_floor(ch: Channels, lay: Layout) -> float:
+def noise_floor(ch: Channels, lay: ScoringLayout) -> float:
     """Gap that white sensor noise alone would leave, as a fraction of the torque variance.
 
     The recorded spectral floors of torque (N_f) and angle (N_y) are taken as white and carried

@@ -21,7 +21,7 @@ _NAMES = {",": "','", ";": "';'", "\t": "tabs"}
 SNIFF_LINES = 50
 
 
-class Layout(NamedTuple):
+class TextLayout(NamedTuple):
     """How the rows of a text trial are written, detected or as the protocol says.
 
     Parameters
@@ -45,7 +45,7 @@ class Layout(NamedTuple):
     decimal: str
 
 
-def detect_layout(where: str, header_line: str, rest: list, protocol) -> Layout:
+def detect_layout(where: str, header_line: str, rest: list, protocol) -> TextLayout:
     """Delimiter, headers, unit row and decimal mark, from the protocol's ``[format]`` or detected
     in ``header_line`` and the first rows below it, ``rest`` (line number, line)."""
     forced = getattr(protocol, "delimiter", "auto")
@@ -55,7 +55,7 @@ def detect_layout(where: str, header_line: str, rest: list, protocol) -> Layout:
     if not rows:
         raise TrialError(where, "no data rows below the header")
     decimal = _detect_decimal(where, rows, delimiter, getattr(protocol, "decimal", "auto"))
-    return Layout(headers, units, rows, delimiter, decimal)
+    return TextLayout(headers, units, rows, delimiter, decimal)
 
 
 def _detect_delimiter(line: str) -> str:
