@@ -93,18 +93,18 @@ def _one(job):
            "chosen": list(d.diagnosis), "first": d.diagnosis[0] if d.diagnosis else "none",
            "gap": d.gap_heldout, "ambiguous_with_first": []}
     if d.diagnosis:
-        row["ambiguous_with_first"] = [a["effects"][1] for a in d.ambiguities if a["effects"][0] == d.diagnosis[0]]
+        row["ambiguous_with_first"] = [a.effects[1] for a in d.ambiguities if a.effects[0] == d.diagnosis[0]]
     if effect is not None:
         c = None if effect in HELD else d.candidate(effect)
         row["shrink"] = None if c is None else c.shrink_heldout
-        row["after_shrink"] = d.after["shrink_heldout"]
-        row["bias_fitted"] = None if c is None else (c.stiffness_bias or {}).get("median_relative")
+        row["after_shrink"] = d.after.shrink_heldout
+        row["bias_fitted"] = None if c is None or c.stiffness_bias is None else c.stiffness_bias.median_relative
         # the clean twin (same seed, same motion drive, no effect): the bias the effect really puts on
         # the estimate, and the gap the effect adds to the nominal model's
         twin = simulate(joint, seed=seed, params={"duration": DURATION})
         res = analyze(twin, proto, seed=seed)
         obs = res.observable
-        row["bias_true"] = d.trials[0]["stiffness_median"] / float(np.median(res.stiffness[obs])) - 1.0
+        row["bias_true"] = d.trials[0].stiffness_median / float(np.median(res.stiffness[obs])) - 1.0
         clean_gap = _nominal_gap(twin, res, proto)
         excess = d.gap_heldout - clean_gap
         row["excess_removed"] = ((d.gap_heldout - c.gap_heldout) / excess if excess > 0 and c is not None
@@ -156,14 +156,15 @@ def _real_one(name):
 
 
 def _summary(d):
-    """What the report needs of a real-data diagnosis (picklable)."""
+    """What the report needs of a real-data diagnosis (picklable; its parts as in diagnosis.json)."""
+    data = d.to_dict()
     return {"gap_train": d.gap_train, "gap_heldout": d.gap_heldout, "noise_floor": d.noise_floor,
-            "diagnosis": list(d.diagnosis), "after": dict(d.after), "ambiguities": list(d.ambiguities),
-            "trials": list(d.trials),
-            "candidates": [(c.effect, c.shrink_heldout, c.shrink_interval, c.evidence.get("p_adjusted"),
+            "diagnosis": list(d.diagnosis), "after": data["after"], "ambiguities": data["ambiguities"],
+            "trials": data["trials"],
+            "candidates": [(c.effect, c.shrink_heldout, c.shrink_interval, getattr(c.evidence, "p_adjusted", None),
                             {k: v for k, v in c.params.items() if not isinstance(v, dict)},
-                            (c.stiffness_bias or {}).get("median_relative"),
-                            (c.stiffness_bias or {}).get("per_trial", {})) for c in d.candidates]}
+                            j["stiffness_bias"].get("median_relative"), j["stiffness_bias"].get("per_trial", {}))
+                           for c, j in zip(d.candidates, data["candidates"])]}
 
 
 def _fmt_params(p: dict) -> str:

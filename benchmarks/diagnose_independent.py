@@ -57,19 +57,19 @@ def _one(job) -> dict:
     except LimbstiffError as exc:
         return {**row, "error": " ".join(str(exc).split()), "seconds": time.perf_counter() - t0}
     row.update(seconds=time.perf_counter() - t0, chosen=list(d.diagnosis),
-               ambiguous_with_first=[a["effects"][1] for a in d.ambiguities if d.diagnosis
-                                     and a["effects"][0] == d.diagnosis[0]], gap=d.gap_heldout)
+               ambiguous_with_first=[a.effects[1] for a in d.ambiguities if d.diagnosis
+                                     and a.effects[0] == d.diagnosis[0]], gap=d.gap_heldout)
     if truth["effect"] is not None:
         c = d.candidate(truth["effect"])
         row["shrink"] = c.shrink_heldout
         row["params"] = {k: v for k, v in c.params.items() if not isinstance(v, dict)}
-        walk = c.evidence["stiffness_walk"]
-        row["walk_ratio"] = walk["with_effect"][0] / walk["nominal"][0]
-        per = next(iter(c.stiffness_bias["per_trial"].values()))
+        walk = c.evidence.stiffness_walk
+        row["walk_ratio"] = walk.with_effect[0] / walk.nominal[0]
+        per = next(iter(c.stiffness_bias.per_trial.values()))
         obs = informed_samples(result.observable)
         true_median = float(np.median(trial.stiffness_true[obs]))
-        row["bias_measured"] = per["relative"]
-        row["bias_true"] = per["nominal"] / true_median - 1.0 if per["nominal"] else None
+        row["bias_measured"] = per.relative
+        row["bias_true"] = per.nominal / true_median - 1.0 if per.nominal else None
     return row
 
 

@@ -26,11 +26,11 @@ from limbstiff.simulate import effect_defaults, simulate
 def test_whiteness_accepts_white_noise_at_its_level():
     rng = np.random.default_rng(1)
     # 200 white series: the 95 % Ljung-Box test rejects about 5 % of them
-    rejected = np.mean([not where.whiteness(rng.normal(size=600), max_lag=10, level=0.95)["white"]
+    rejected = np.mean([not where.whiteness(rng.normal(size=600), max_lag=10, level=0.95).white
                         for _ in range(200)])
     assert 0.01 <= rejected <= 0.10
     out = where.whiteness(rng.normal(size=2000), max_lag=10, level=0.95)
-    assert out["bound"] == pytest.approx(1.96 / np.sqrt(2000), rel=1e-3)
+    assert out.bound == pytest.approx(1.96 / np.sqrt(2000), rel=1e-3)
 
 
 def test_whiteness_rejects_correlated_noise():
@@ -41,11 +41,11 @@ def test_whiteness_rejects_correlated_noise():
     for k in range(1, len(e)):
         x[k] = 0.5 * x[k - 1] + e[k]            # AR(1): ρ(1) = 0.5
     out = where.whiteness(x, max_lag=10)
-    assert not out["white"] and out["p_value"] < 1e-6
-    assert out["acf"][0] == pytest.approx(0.5, abs=0.05)
+    assert not out.white and out.p_value < 1e-6
+    assert out.acf[0] == pytest.approx(0.5, abs=0.05)
     # tested against its own autocorrelation as the reference, the same series is "white"
     ref = 0.5 ** np.arange(11)
-    assert where.whiteness(x, max_lag=10, reference=ref)["p_value"] > 0.01
+    assert where.whiteness(x, max_lag=10, reference=ref).p_value > 0.01
 
 
 def test_cross_correlation_of_a_delayed_copy_peaks_at_the_delay():
@@ -54,10 +54,10 @@ def test_cross_correlation_of_a_delayed_copy_peaks_at_the_delay():
     x = rng.normal(size=20000)
     r = np.roll(x, int(delay * fs)) + 0.5 * rng.normal(size=x.size)     # r(t) = x(t − d) + noise
     out = where.cross_correlation(r, x, max_lag=100, sample_period=1 / fs)
-    assert out["peak_lag_s"] == pytest.approx(delay)
-    assert out["significant"] and out["peak"] == pytest.approx(1 / np.sqrt(1.25), abs=0.02)
+    assert out.peak_lag_s == pytest.approx(delay)
+    assert out.significant and out.peak == pytest.approx(1 / np.sqrt(1.25), abs=0.02)
     independent = where.cross_correlation(rng.normal(size=20000), x, max_lag=100, sample_period=1 / fs)
-    assert np.mean(np.abs(independent["ccf"]) > independent["bound"]) < 0.15
+    assert np.mean(np.abs(independent.ccf) > independent.bound) < 0.15
 
 
 def test_regime_bins_and_gap_ratios():
@@ -68,10 +68,10 @@ def test_regime_bins_and_gap_ratios():
     residual = np.where(labels == 2, 2.0, 1.0)               # bin 2 has twice the residual
     bins = where.binned_gap(residual, 4.0, labels, names)
     overall = np.mean(residual ** 2)
-    assert bins[2]["ratio"] == pytest.approx(4.0 / overall)
-    assert bins[0]["gap"] == pytest.approx(1.0 / 4.0)
-    lo, hi = bins[2]["interval"]
-    assert lo < bins[2]["ratio"] < hi
+    assert bins[2].ratio == pytest.approx(4.0 / overall)
+    assert bins[0].gap == pytest.approx(1.0 / 4.0)
+    lo, hi = bins[2].interval
+    assert lo < bins[2].ratio < hi
 
 
 def test_reversal_mask_and_change_points():
@@ -94,10 +94,10 @@ def test_coherence_of_a_linear_residual():
     angle -= np.mean(angle)
     linear = np.convolve(angle, np.ones(5) / 5, mode="same")      # a linear dynamics of the angle
     out = where.spectrum(linear, angle, angle, fs, max_hz=20.0)
-    f = np.asarray(out["freq_hz"])
-    assert np.all(np.asarray(out["coherence"])[(f > 0.5) & (f < 15)] > out["bound"])
+    f = out.freq_hz
+    assert np.all(out.coherence[(f > 0.5) & (f < 15)] > out.bound)
     noise = where.spectrum(rng.normal(size=8000), angle, angle, fs, max_hz=20.0)
-    assert np.mean(np.asarray(noise["coherence"]) > noise["bound"]) < 0.15
+    assert np.mean(noise.coherence > noise.bound) < 0.15
 
 
 def test_sign_flip_test_and_holm():
@@ -150,7 +150,7 @@ def test_a_new_effect_is_one_object():
                          torque=lambda ch, sh: ch.angle ** 3, smooth=True, units={"coefficient": "N·m/rad³"})
     trial = simulate("ankle", seed=5, params={"duration": 8.0}, effect="coulomb_friction")
     d = diagnose([trial], seed=0, effects={"cubic": cubic, "coulomb_friction": CANDIDATES["coulomb_friction"]})
-    assert {c.effect for c in d.candidates if c.evidence["tried"]} == {"cubic", "coulomb_friction"}
+    assert {c.effect for c in d.candidates if c.evidence.tried} == {"cubic", "coulomb_friction"}
     assert d.candidate("cubic").units == {"coefficient": "N·m/rad³"}
     assert d.diagnosis == ("coulomb_friction",)
 
@@ -195,13 +195,13 @@ def test_the_right_effect_is_found(joint, effect, seed, extra):
     trial = _trial(joint, effect, seed, **extra)
     d = _diagnose(trial)
     first = d.diagnosis[0] if d.diagnosis else None
-    ambiguous = {a["effects"][1] for a in d.ambiguities if a["effects"][0] == first}
+    ambiguous = {a.effects[1] for a in d.ambiguities if a.effects[0] == first}
     assert first == effect or effect in ambiguous, (d.diagnosis, d.ambiguities)
     c = d.candidate(effect)
     assert c.shrink_heldout > 0.5
     lo, hi = c.shrink_interval
     assert lo <= c.shrink_heldout <= hi
-    assert c.evidence["significant"] and c.evidence["relevant"]
+    assert c.evidence.significant and c.evidence.relevant
     if effect == "reflex":
         assert c.params["direction"] == extra.get("direction", 1.0)
         assert c.params["delay"] == pytest.approx(extra["delay"], abs=0.006)
@@ -217,12 +217,12 @@ def test_gravity_and_drift_are_held_by_the_model_and_said_so():
     assert d.diagnosis == ()
     for name in ("gravity", "sensor_drift"):
         c = d.candidate(name)
-        assert not c.evidence["tried"] and c.shrink_heldout == 0.0 and c.evidence["reason"]
+        assert not c.evidence.tried and c.shrink_heldout == 0.0 and c.evidence.reason
     assert any(n.startswith("gravity") and "operating angle" in n for n in d.notes)
     assert any(n.startswith("sensor drift") for n in d.notes)
     # the stiffness the tool reports includes −mgl (20 % × 1.6 of the stiffness here): the bias the
     # effect causes is real, and the diagnosis cannot see it
-    assert d.trials[0]["stiffness_median"] < 0.8 * np.median(trial.stiffness_true)
+    assert d.trials[0].stiffness_median < 0.8 * np.median(trial.stiffness_true)
 
 
 def test_identified_mechanics_are_fitted_with_the_effects():
@@ -230,23 +230,23 @@ def test_identified_mechanics_are_fitted_with_the_effects():
     # each candidate's model carries its own m and b
     trial = _trial("ankle", "reflex", 16, direction=-1.0, delay=0.065)
     d = diagnose([trial], Protocol(), seed=1)
-    names = {c.effect for c in d.candidates if c.evidence["tried"]}
+    names = {c.effect for c in d.candidates if c.evidence.tried}
     assert not names & {"inertia_error", "damping_error"}
     assert any("inertia_error and damping_error are not separate effects" in n for n in d.notes)
     assert d.diagnosis[:1] == ("reflex",)
     c = d.candidate("reflex")
     assert c.params["delay"] == pytest.approx(0.065, abs=0.006) and c.params["direction"] == -1.0
     m, b = float(trial.metadata["nominal_inertia"]), float(trial.metadata["nominal_damping"])
-    fitted = c.params["mechanics_fitted_with_it"][trial.name]
+    fitted = c.mechanics[trial.name]
     # the simulator's own m and b: identified within 10 % once the reflex is in the model
-    assert fitted["inertia"] == pytest.approx(m, rel=0.1) and fitted["damping"] == pytest.approx(b, rel=0.1)
+    assert fitted.inertia == pytest.approx(m, rel=0.1) and fitted.damping == pytest.approx(b, rel=0.1)
 
 
 @pytest.mark.parametrize("joint,seed", [("elbow", 31), ("ankle", 32)])
 def test_clean_trials_get_an_empty_diagnosis(joint, seed):
     d = _diagnose(_trial(joint, None, seed))
     assert d.diagnosis == ()
-    assert d.after["shrink_heldout"] == 0.0 and d.after["stiffness_bias"] is None
+    assert d.after.shrink_heldout == 0.0 and d.after.stiffness_bias is None
     assert d.gap_heldout < 0.01
 
 

@@ -11,11 +11,11 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Sequence
 
 import numpy as np
 
+from ..blas_threads import one_blas_thread
 from ..analysis import analyze, range_of_motion
 from ..errors import LimbstiffError, TrialError
 from ..protocol import Protocol
@@ -25,7 +25,8 @@ from .bias import median_stiffness, stiffness_change
 from .channels import channels_from
 from .candidates import CANDIDATES
 from .kinds import MechanicsOffset
-from .result import Candidate, Diagnosis
+from .result import (After, Candidate, Diagnosis, Evidence, HeldOut, Mechanics, NotTried, Settings, StepScore,
+                     Step, StiffnessBias, StiffnessWalks, TrialInfo)
 
 #: Held-out blocks of a single trial.
 BLOCKS = 5
@@ -49,6 +50,7 @@ def candidate_library(channels, effects: dict | None = None) -> tuple[dict, list
     return effects, notes
 
 
+@one_blas_thread
 def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed: int = 0,
              inertia: float | None = None, damping: float | None = None, blocks: int = BLOCKS,
              effects: dict | None = None, results: Sequence | None = None) -> Diagnosis:
@@ -95,16 +97,17 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
                         key=lambda c: -c.shrink_heldout)
     candidates += _untried(run, {c.effect for c in candidates})
     after = _after(run, rng)
-    where_out, series = residual.series(problem, run.sel.nominal, run.sel.final if run.chosen else None)
+    series = residual.series(problem, run.sel.nominal, run.sel.final if run.chosen else None)
     trials_info = _trials_info(run)
-    floor = float(np.average([t["noise_floor"] for t in trials_info],
+    floor = float(np.average([t.noise_floor for t in trials_info],
                              weights=[np.sum(problem.deviation[problem.trial == i] ** 2) for i in range(len(trials))]))
     notes = library_notes + [f"{orig} was fitted at the narrowest loop its grid allows and is named {name}: a "
                              f"friction whose presliding compliance shows (see selection._at_limit); not tried "
                              "again" for orig, name in run.sel.named_as.items()] + _notes(channels)
     return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC,
                      gap_train=float(run.sel.nominal.rss_train) / run.den, gap_heldout=run.nominal_heldout / run.den,
-                     noise_floor=floor, heldout=_heldout(problem), where=where_out, candidates=tuple(candidates),
+                     noise_floor=floor, heldout=_heldout(problem), where={n: s.where for n, s in series.items()},
+                     candidates=tuple(candidates),
                      diagnosis=tuple(run.chosen), steps=tuple(_steps(run)), ambiguities=tuple(run.sel.ambiguities),
                      after=after, settings=_settings(protocol.ci_level), notes=tuple(notes),
                      warnings=tuple(w for r in results for w in r.warnings), seed=seed, series=series)
@@ -139,10 +142,16 @@ class _Run:
         return [e.name for e, _ in self.sel.chosen]
 
     @property
-    def mech(self) -> SimpleNamespace:
+    def mech(self) -> Mechanics:
         """The nominal m and b (medians over the trials), for the effects' parameters."""
-        return SimpleNamespace(inertia=float(np.median([c.inertia for c in self.channels])),
-                               damping=float(np.median([c.damping for c in self.channels])))
+        return Mechanics(inertia=float(np.median([c.inertia for c in self.channels])),
+                         damping=float(np.median([c.damping for c in self.channels])))
+
+    def fitted_mechanics(self, mechanics) -> dict[str, Mechanics] | None:
+        """By trial name, the (m, b) of each trial fitted with effects (None: none fitted)."""
+        if mechanics is None:
+            return None
+        return {ch.name: Mechanics(inertia=m[0], damping=m[1]) for ch, m in zip(self.channels, mechanics)}
 
     @functools.cached_property
     def nominal_stiffness(self) -> list[float]:
@@ -153,10 +162,11 @@ class _Run:
         return [median_stiffness(t, r, c, self.protocol, *(m if m is not None else (None, None)))
                 for t, r, c, m in zip(self.trials, self.results, self.channels, mech)]
 
-    def stiffness_change(self, fitted: list, mechanics=None) -> dict:
+    def stiffness_change(self, fitted: list, mechanics=None) -> StiffnessBias:
         """:func:`stiffness_change` of the same fitted effects removed from every trial."""
-        return stiffness_change(self.trials, self.results, self.channels, self.protocol, [fitted] * len(self.trials),
-                                nominal_stiffness=self.nominal_stiffness, mechanics=mechanics)
+        return StiffnessBias.from_change(
+            stiffness_change(self.trials, self.results, self.channels, self.protocol, [fitted] * len(self.trials),
+                             nominal_stiffness=self.nominal_stiffness, mechanics=mechanics))
 
 
 #: The effect names of the interface (INTERFACE.md section 5) and why one is not tried as a term.
@@ -183,7 +193,7 @@ def _untried(run: _Run, tried: set) -> list[Candidate]:
             why = "not in the candidate library given"
         out.append(Candidate(effect=name, description="not tried: " + why, params={}, units={}, gap_train=train,
                              gap_heldout=held, shrink_heldout=0.0, shrink_interval=(0.0, 0.0),
-                             evidence={"tried": False, "reason": why}, stiffness_bias={}))
+                             evidence=NotTried(reason=why)))
     return out
 
 
@@ -199,34 +209,29 @@ def _candidate(run: _Run, name: str, scored, eff, rng: np.random.Generator) -> C
     """
     ev = scored.evaluation
     params = eff.params(ev.shape, ev.coef, run.mech)
-    if ev.mechanics is not None:
-        params["mechanics_fitted_with_it"] = {ch.name: {"inertia": m[0], "damping": m[1]}
-                                              for ch, m in zip(run.channels, ev.mechanics)}
     bias = run.stiffness_change([(eff, ev.shape, ev.coef)], ev.mechanics)
     return Candidate(
         effect=name, description=eff.description, params=params, units=eff.units_of(params),
         gap_train=ev.rss_train / run.den, gap_heldout=float(ev.unit_rss.sum()) / run.den,
         shrink_heldout=scored.shrink,
         shrink_interval=selection.shrink_interval(scored.reference, ev.unit_rss, rng, level=run.protocol.ci_level),
-        evidence=_evidence(run, name, scored, eff), stiffness_bias=bias)
+        evidence=_evidence(run, name, scored, eff), stiffness_bias=bias, mechanics=run.fitted_mechanics(ev.mechanics))
 
 
-def _evidence(run: _Run, name: str, scored, eff) -> dict:
+def _evidence(run: _Run, name: str, scored, eff) -> Evidence:
     """How a candidate was judged: test, step, shapes per fold, noise levels, grid."""
     ev, chosen = scored.evaluation, run.chosen
     later = [s[name] for s in run.sel.steps[1:] if name in s]
     shaped = eff.grid(selection.problem_scales(run.problem)) != [{}]
-    return {"tried": True, "identifiable_share": ev.share, "p_value": scored.p_value, "p_adjusted": scored.p_adjusted,
-            "significant": scored.significant, "relevant": scored.relevant,
-            "share_of_nominal_gap": scored.share_of_nominal, "units": int(len(scored.gains)),
-            "units_improved": float(np.mean(scored.gains > 0)),
-            "fold_params": [eff.params(s, np.zeros(len(ev.coef)), None) for s in ev.fold_shapes
-                            if s is not None] if shaped else None,
-            "stiffness_walk": {"nominal": _walks(run.sel.nominal), "with_effect": _walks(ev),
-                               "unit": "(N·m/rad)²/s"},
-            "chosen": name in chosen, "step": chosen.index(name) + 1 if name in chosen else None,
-            "shrink_after_chosen": later[-1].shrink if later and name not in chosen else None,
-            "grid": eff.grid_reason}
+    return Evidence(
+        identifiable_share=ev.share, p_value=scored.p_value, p_adjusted=scored.p_adjusted,
+        significant=scored.significant, relevant=scored.relevant, share_of_nominal_gap=scored.share_of_nominal,
+        units=int(len(scored.gains)), units_improved=float(np.mean(scored.gains > 0)),
+        fold_params=tuple(eff.params(s, np.zeros(len(ev.coef)), None) for s in ev.fold_shapes
+                          if s is not None) if shaped else None,
+        stiffness_walk=StiffnessWalks(nominal=tuple(_walks(run.sel.nominal)), with_effect=tuple(_walks(ev))),
+        chosen=name in chosen, step=chosen.index(name) + 1 if name in chosen else None,
+        shrink_after_chosen=later[-1].shrink if later and name not in chosen else None, grid=eff.grid_reason)
 
 
 def _chosen_fits(sel: selection.Selection) -> list:
@@ -240,70 +245,65 @@ def _chosen_fits(sel: selection.Selection) -> list:
     return fitted
 
 
-def _after(run: _Run, rng: np.random.Generator) -> dict:
+def _after(run: _Run, rng: np.random.Generator) -> After:
     """The model with every chosen effect: its gap, shrinkage, parameters and stiffness bias."""
     final, nominal_held, den = run.sel.final, run.nominal_heldout, run.den
     fitted = _chosen_fits(run.sel)
     params = {eff.name: eff.params(shape, coef, run.mech) for eff, shape, coef in fitted}
-    after = {"effects": run.chosen, "gap_train": final.rss_train / den,
-             "gap_heldout": float(final.unit_rss.sum()) / den,
-             "shrink_heldout": 1.0 - float(final.unit_rss.sum()) / nominal_held if nominal_held > 0 else None,
-             "shrink_heldout_interval": list(selection.shrink_interval(run.sel.nominal.unit_rss, final.unit_rss, rng,
-                                                                    level=run.protocol.ci_level)),
-             "params": params,
-             "units": {eff.name: eff.units_of(params[eff.name]) for eff, _, _ in fitted},
-             "stiffness_walk": _walks(final)}
-    if final.mechanics is not None:
-        after["mechanics"] = {ch.name: {"inertia": m[0], "damping": m[1]} for ch, m in zip(run.channels, final.mechanics)}
-    after["stiffness_bias"] = run.stiffness_change(fitted, final.mechanics) if fitted else None
-    return after
+    return After(
+        effects=tuple(run.chosen), gap_train=final.rss_train / den, gap_heldout=float(final.unit_rss.sum()) / den,
+        shrink_heldout=1.0 - float(final.unit_rss.sum()) / nominal_held if nominal_held > 0 else None,
+        shrink_heldout_interval=tuple(selection.shrink_interval(run.sel.nominal.unit_rss, final.unit_rss, rng,
+                                                                level=run.protocol.ci_level)),
+        params=params, units={eff.name: eff.units_of(params[eff.name]) for eff, _, _ in fitted},
+        stiffness_walk=tuple(_walks(final)), mechanics=run.fitted_mechanics(final.mechanics),
+        stiffness_bias=run.stiffness_change(fitted, final.mechanics) if fitted else None)
 
 
-def _trials_info(run: _Run) -> list[dict]:
+def _trials_info(run: _Run) -> list[TrialInfo]:
     """One summary per trial: source, sampling, nominal model, layout, stiffness, noise floor, gap."""
     problem, out = run.problem, []
     for i, (t, r, ch, lay) in enumerate(zip(run.trials, run.results, run.channels, problem.layouts)):
         sl = problem.trial_rows(i)
-        out.append({"trial": t.name, "source": t.source, "source_sha256": t.source_sha256,
-                    "fs_hz": t.fs, "duration_s": t.duration, "variant": r.variant,
-                    "inertia": ch.inertia, "damping": ch.damping, "mechanics": ch.mechanics,
-                    "cutoff_hz": ch.cutoff_hz, "motion_hz": ch.motion_hz, "steps": int(lay.scored.sum()),
-                    "step_s": lay.step_s, "units": lay.n_units,
-                    "stiffness_median": r.informed_stiffness()[0].median, "noise_levels": run.sel.nominal.noise[i].to_dict(),
-                    "noise_floor": nominal.noise_floor(ch, lay),
-                    "gap_train": float(np.sum(run.sel.nominal.residual[sl] ** 2)
-                                       / np.sum(problem.deviation[sl] ** 2))})
+        out.append(TrialInfo(
+            trial=t.name, source=t.source, source_sha256=t.source_sha256, fs_hz=t.fs, duration_s=t.duration,
+            variant=r.variant, inertia=ch.inertia, damping=ch.damping, mechanics=ch.mechanics,
+            cutoff_hz=ch.cutoff_hz, motion_hz=ch.motion_hz, steps=int(lay.scored.sum()), step_s=lay.step_s,
+            units=lay.n_units, stiffness_median=r.informed_stiffness()[0].median,
+            noise_levels=run.sel.nominal.noise[i], noise_floor=nominal.noise_floor(ch, lay),
+            gap_train=float(np.sum(run.sel.nominal.residual[sl] ** 2) / np.sum(problem.deviation[sl] ** 2))))
     return out
 
 
-def _steps(run: _Run) -> list[dict]:
+def _steps(run: _Run) -> list[Step]:
     """Every selection step: the effect added and every candidate's score and test."""
     chosen = run.chosen
-    return [{"step": i + 1, "added": chosen[i] if i < len(chosen) else None,
-             "candidates": {n: {"shrink_heldout": s.shrink, "share_of_nominal_gap": s.share_of_nominal,
-                                "p_value": s.p_value, "p_adjusted": s.p_adjusted,
-                                "significant": s.significant, "relevant": s.relevant}
-                            for n, s in step.items()}} for i, step in enumerate(run.sel.steps)]
+    return [Step(step=i + 1, added=chosen[i] if i < len(chosen) else None,
+                 candidates={n: StepScore(shrink_heldout=s.shrink, share_of_nominal_gap=s.share_of_nominal,
+                                          p_value=s.p_value, p_adjusted=s.p_adjusted, significant=s.significant,
+                                          relevant=s.relevant) for n, s in step.items()})
+            for i, step in enumerate(run.sel.steps)]
 
 
-def _heldout(problem: crossval.Problem) -> dict:
+def _heldout(problem: crossval.Problem) -> HeldOut:
     """The held-out scheme: folds, guard (s), units, unit length and step (s)."""
-    return {"scheme": f"{problem.n_folds} contiguous blocks per trial", "folds": problem.n_folds,
-            "guard_s": problem.guard_s, "units": problem.n_units,
-            "unit_s": [lay.unit_s for lay in problem.layouts], "step_s": [lay.step_s for lay in problem.layouts]}
+    return HeldOut(scheme=f"{problem.n_folds} contiguous blocks per trial", folds=problem.n_folds,
+                   guard_s=problem.guard_s, units=problem.n_units, unit_s=tuple(lay.unit_s for lay in problem.layouts),
+                   step_s=tuple(lay.step_s for lay in problem.layouts))
 
 
-def _settings(level: float) -> dict:
+def _settings(level: float) -> Settings:
     """The settings of the selection, the nominal model and the test (confidence ``level``)."""
-    return {"alpha": selection.ALPHA, "relevance": selection.RELEVANCE, "permutations": selection.PERMUTATIONS,
-            "bootstrap": selection.BOOTSTRAP, "collinear": selection.COLLINEAR, "ci_level": level,
-            "model": "the analysis's Kalman model (stiffness a random walk) with the effects as measurement terms; "
-                     "noise levels refitted per model by maximum marginal likelihood",
-            "settling_periods": nominal.SETTLING_PERIODS,
-            "test": "one-sided sign-flip test of the summed held-out gains over units, Holm-corrected over the "
-                    "candidates of each step",
-            "relevance_reason": "an effect must remove at least this share of the nominal model's held-out "
-                                "gap, at the step it is added (see limbstiff.diagnosis.selection.RELEVANCE)"}
+    return Settings(
+        alpha=selection.ALPHA, relevance=selection.RELEVANCE, permutations=selection.PERMUTATIONS,
+        bootstrap=selection.BOOTSTRAP, collinear=selection.COLLINEAR, ci_level=level,
+        model="the analysis's Kalman model (stiffness a random walk) with the effects as measurement terms; noise "
+              "levels refitted per model by maximum marginal likelihood",
+        settling_periods=nominal.SETTLING_PERIODS,
+        test="one-sided sign-flip test of the summed held-out gains over units, Holm-corrected over the candidates "
+             "of each step",
+        relevance_reason="an effect must remove at least this share of the nominal model's held-out gap, at the "
+                         "step it is added (see limbstiff.diagnosis.selection.RELEVANCE)")
 
 
 def _notes(channels) -> list[str]:

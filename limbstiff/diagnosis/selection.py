@@ -156,6 +156,30 @@ class Scored:
         return self.share_of_nominal >= RELEVANCE
 
 
+@dataclass(frozen=True)
+class Ambiguity:
+    """Two qualifying effects the data cannot tell apart.
+
+    Parameters
+    ----------
+    effects : tuple of str
+        The chosen effect, then the other.
+    correlation : float
+        |r| of their fitted torques (dimensionless).
+    p_difference : float
+        Two-sided sign-flip p-value of the difference of their unit gains.
+    reason : str
+    separate_by : str
+        The experiment that would tell them apart.
+    """
+
+    effects: tuple[str, str]
+    correlation: float
+    p_difference: float
+    reason: str
+    separate_by: str
+
+
 @dataclass
 class Selection:
     """Outcome of the greedy selection.
@@ -172,7 +196,7 @@ class Selection:
         The effects judged responsible, in order, with their shapes.
     final : crossval.Evaluation
         The model with every chosen effect.
-    ambiguities : list of dict
+    ambiguities : list of Ambiguity
     named_as : dict of str to str
         Effects fitted at the lower edge of their grid and named as the effect they become there
         (:func:`_at_limit`); they are not tried again.
@@ -265,7 +289,7 @@ def _at_limit(best: str, scored: dict, eligible: list, effects: dict, problem) -
     return limit if shape and all(shape.get(k) == min(g[k] for g in grid) for k in shape) else best
 
 
-def ambiguities(sel: Selection, rng: np.random.Generator) -> list[dict]:
+def ambiguities(sel: Selection, rng: np.random.Generator) -> list[Ambiguity]:
     """Pairs the data cannot tell apart: for each chosen effect, the other qualifying candidates of
     its step whose fitted torque is nearly collinear with it (|r| ≥ :data:`COLLINEAR`) or whose
     unit gains do not differ significantly (two-sided sign-flip test at :data:`ALPHA`)."""
@@ -286,7 +310,7 @@ def ambiguities(sel: Selection, rng: np.random.Generator) -> list[dict]:
                 if p_diff > ALPHA:
                     reason.append(f"their held-out gains do not differ significantly (p = {p_diff:.2g}; "
                                   f"shrink {a.shrink:.1%} against {b.shrink:.1%})")
-                out.append({"effects": [effect.name, name], "correlation": corr, "p_difference": p_diff,
-                            "reason": "; ".join(reason),
-                            "separate_by": SEPARATE_BY.get(frozenset({effect.name, name}), GENERIC_SEPARATION)})
+                out.append(Ambiguity(effects=(effect.name, name), correlation=corr, p_difference=p_diff,
+                                     reason="; ".join(reason),
+                                     separate_by=SEPARATE_BY.get(frozenset({effect.name, name}), GENERIC_SEPARATION)))
     return out

@@ -7,11 +7,149 @@ measured minus the predicted torque (N·m), ``level`` a two-sided confidence lev
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import signal as sps
 from scipy import stats
 
 from ..signals import robust_sd
+
+
+@dataclass(frozen=True, eq=False)
+class Whiteness:
+    """An autocorrelation (Ljung–Box) test of whiteness.
+
+    Parameters
+    ----------
+    lags : ndarray of int, shape (L,)
+        Lags 1…L, in samples.
+    acf : ndarray, shape (L,)
+        Sample autocorrelation at the lags (dimensionless).
+    bound : float
+        Per-lag bound ±z/√n of a white series (dimensionless).
+    reference : ndarray, shape (L,), or None
+        Autocorrelation expected under the null hypothesis, when not zero.
+    q : float
+        Ljung–Box statistic.
+    dof : int
+        Its degrees of freedom (L).
+    p_value : float
+    white : bool
+        p > 1 − level.
+    outside : float
+        Share of the lags outside the bound.
+    level : float
+        Confidence level of the bound and the test.
+    sample_period_s : float or None
+        Time between samples, s, when the series has one.
+    note : str or None
+        What the series is, when said.
+    """
+
+    lags: np.ndarray
+    acf: np.ndarray
+    bound: float
+    reference: np.ndarray | None
+    q: float
+    dof: int
+    p_value: float
+    white: bool
+    outside: float
+    level: float
+    sample_period_s: float | None = None
+    note: str | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class CrossCorrelation:
+    """The cross-correlation r(k) = corr(residual(t), x(t − k)) with Bartlett's bound.
+
+    Parameters
+    ----------
+    lags_s : ndarray, shape (2L + 1,), s
+        Lags −L…L.
+    ccf : ndarray, shape (2L + 1,)
+        r at the lags (dimensionless).
+    bound : float
+        ± bound of two independent series (dimensionless).
+    peak_lag_s : float, s
+        Lag of the largest |r|: positive when the residual follows x.
+    peak : float
+        r at the peak.
+    significant : bool
+        |peak| > bound.
+    level : float
+    """
+
+    lags_s: np.ndarray
+    ccf: np.ndarray
+    bound: float
+    peak_lag_s: float
+    peak: float
+    significant: bool
+    level: float
+
+
+@dataclass(frozen=True, eq=False)
+class Spectrum:
+    """The residual's spectrum against the torque's, and its coherence with the angle.
+
+    Parameters
+    ----------
+    freq_hz : ndarray, shape (k,), Hz
+    residual_psd, torque_psd : ndarray, shape (k,), (N·m)²/Hz
+        One-sided Welch estimates.
+    ratio : ndarray, shape (k,)
+        Residual over torque PSD (0 where the torque's is 0).
+    coherence : ndarray, shape (k,)
+        Magnitude-squared coherence of the residual with the angle (dimensionless).
+    bound : float
+        Coherence above which it is significant at ``level``.
+    segments : int
+        Welch segments.
+    level : float
+    """
+
+    freq_hz: np.ndarray
+    residual_psd: np.ndarray
+    torque_psd: np.ndarray
+    ratio: np.ndarray
+    coherence: np.ndarray
+    bound: float
+    segments: int
+    level: float
+
+
+@dataclass(frozen=True)
+class Bin:
+    """The gap within one bin of an operating regime.
+
+    Parameters
+    ----------
+    bin : str
+        The bin's name.
+    range : tuple of float or None
+        Its range (lo, hi) in the binned quantity's unit, when it has one.
+    n : int
+        Samples in the bin.
+    share : float
+        Their share of all samples.
+    gap : float or None
+        Mean r² in the bin over the record's mean squared torque deviation (None: empty bin).
+    ratio : float or None
+        Mean r² in the bin over mean r² overall.
+    interval : tuple of float or None
+        Interval (lo, hi) of ``ratio`` (χ² with n_eff degrees of freedom).
+    """
+
+    bin: str
+    range: tuple | None
+    n: int
+    share: float
+    gap: float | None = None
+    ratio: float | None = None
+    interval: tuple | None = None
 
 
 def _z(level: float) -> float:
@@ -28,7 +166,7 @@ def autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
 
 
 def whiteness(x: np.ndarray, *, max_lag: int, level: float = 0.95,
-              reference: np.ndarray | None = None) -> dict:
+              reference: np.ndarray | None = None) -> Whiteness:
     """Autocorrelation test of whiteness (Ljung–Box portmanteau).
 
     Parameters
@@ -45,10 +183,7 @@ def whiteness(x: np.ndarray, *, max_lag: int, level: float = 0.95,
 
     Returns
     -------
-    dict
-        ``lags`` (1…L), ``acf``, ``bound`` (per-lag ±bound), ``reference`` (or None),
-        ``q`` (Ljung–Box statistic), ``dof``, ``p_value``, ``white`` (p > 1 − level),
-        ``outside`` (share of lags outside the bound).
+    Whiteness
     """
     x = np.asarray(x, float)
     n = len(x)
@@ -59,13 +194,13 @@ def whiteness(x: np.ndarray, *, max_lag: int, level: float = 0.95,
     q = float(n * (n + 2) * np.sum(d ** 2 / (n - lags)))
     p = float(stats.chi2.sf(q, max_lag))
     bound = _z(level) / np.sqrt(n)
-    return {"lags": lags.tolist(), "acf": acf[1:].tolist(), "bound": bound,
-            "reference": None if reference is None else ref[1:].tolist(), "q": q, "dof": max_lag,
-            "p_value": p, "white": p > 1 - level, "outside": float(np.mean(np.abs(d) > bound)), "level": level}
+    return Whiteness(lags=lags, acf=acf[1:], bound=bound, reference=None if reference is None else ref[1:], q=q,
+                     dof=max_lag, p_value=p, white=p > 1 - level, outside=float(np.mean(np.abs(d) > bound)),
+                     level=level)
 
 
 def cross_correlation(residual: np.ndarray, x: np.ndarray, *, max_lag: int, sample_period: float,
-                      level: float = 0.95) -> dict:
+                      level: float = 0.95) -> CrossCorrelation:
     """Cross-correlation r(k) = corr(residual(t), x(t − k)) over lags −L…L, with Bartlett's bound.
 
     A positive peak lag means the residual follows the input ``x`` that many seconds later.
@@ -74,9 +209,7 @@ def cross_correlation(residual: np.ndarray, x: np.ndarray, *, max_lag: int, samp
 
     Returns
     -------
-    dict
-        ``lags_s``, ``ccf``, ``bound`` (±), ``peak_lag_s``, ``peak`` (the r at the peak),
-        ``significant`` (|peak| > bound), ``level``.
+    CrossCorrelation
     """
     r = np.asarray(residual, float) - np.mean(residual)
     u = np.asarray(x, float) - np.mean(x)
@@ -91,13 +224,13 @@ def cross_correlation(residual: np.ndarray, x: np.ndarray, *, max_lag: int, samp
     var = (1.0 + 2.0 * np.sum(rho_r[1:] * rho_x[1:])) / n
     bound = _z(level) * np.sqrt(max(var, 1.0 / n))
     k = int(np.argmax(np.abs(ccf)))
-    return {"lags_s": (lags * sample_period).tolist(), "ccf": ccf.tolist(), "bound": float(bound),
-            "peak_lag_s": float(lags[k] * sample_period), "peak": float(ccf[k]),
-            "significant": bool(abs(ccf[k]) > bound), "level": level}
+    return CrossCorrelation(lags_s=lags * sample_period, ccf=ccf, bound=float(bound),
+                            peak_lag_s=float(lags[k] * sample_period), peak=float(ccf[k]),
+                            significant=bool(abs(ccf[k]) > bound), level=level)
 
 
 def spectrum(residual: np.ndarray, torque: np.ndarray, angle: np.ndarray, fs: float, *,
-             max_hz: float | None = None, level: float = 0.95, segment_s: float | None = None) -> dict:
+             max_hz: float | None = None, level: float = 0.95, segment_s: float | None = None) -> Spectrum:
     """Residual spectrum against the torque's, and the residual's coherence with the angle.
 
     Welch estimates with Hann segments of ``segment_s`` (default: 8 s or a quarter of the
@@ -108,9 +241,8 @@ def spectrum(residual: np.ndarray, torque: np.ndarray, angle: np.ndarray, fs: fl
 
     Returns
     -------
-    dict
-        ``freq_hz``, ``residual_psd`` ((N·m)²/Hz), ``torque_psd``, ``ratio`` (residual over
-        torque PSD), ``coherence``, ``bound``, ``segments``, ``level``.
+    Spectrum
+        Up to ``max_hz``.
     """
     n = len(residual)
     seg = int(min(n // 4 if segment_s is None else n, (segment_s or 8.0) * fs))
@@ -125,9 +257,9 @@ def spectrum(residual: np.ndarray, torque: np.ndarray, angle: np.ndarray, fs: fl
     keep = f <= (max_hz if max_hz is not None else f[-1])
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(pt > 0, pr / pt, np.nan)
-    return {"freq_hz": f[keep].tolist(), "residual_psd": pr[keep].tolist(), "torque_psd": pt[keep].tolist(),
-            "ratio": np.nan_to_num(ratio[keep], nan=0.0).tolist(), "coherence": coh[keep].tolist(),
-            "bound": float(bound), "segments": segments, "level": level}
+    return Spectrum(freq_hz=f[keep], residual_psd=pr[keep], torque_psd=pt[keep],
+                    ratio=np.nan_to_num(ratio[keep], nan=0.0), coherence=coh[keep], bound=float(bound),
+                    segments=segments, level=level)
 
 
 def effective_fraction(x: np.ndarray, max_lag: int = 50) -> float:
@@ -139,7 +271,7 @@ def effective_fraction(x: np.ndarray, max_lag: int = 50) -> float:
 
 
 def binned_gap(residual: np.ndarray, deviation_power: float, labels: np.ndarray, names: list[str], *,
-               level: float = 0.95, effective: float = 1.0, edges: list | None = None) -> list[dict]:
+               level: float = 0.95, effective: float = 1.0, edges: list | None = None) -> list[Bin]:
     """The gap within each bin of an operating regime.
 
     Parameters
@@ -158,11 +290,9 @@ def binned_gap(residual: np.ndarray, deviation_power: float, labels: np.ndarray,
 
     Returns
     -------
-    list of dict
-        Per bin: ``bin``, ``range``, ``n``, ``share`` (of samples), ``gap`` (mean r² over the
-        record's torque variance), ``ratio`` (mean r² in the bin over mean r² overall) and its
-        ``interval`` (χ² with n_eff degrees of freedom: the mean of n_eff squared Gaussian
-        residuals).
+    list of Bin
+        One per name; the interval is χ² with n_eff degrees of freedom (the mean of n_eff
+        squared Gaussian residuals).
     """
     r2 = np.asarray(residual, float) ** 2
     overall = float(np.mean(r2)) if r2.size else float("nan")
@@ -170,17 +300,17 @@ def binned_gap(residual: np.ndarray, deviation_power: float, labels: np.ndarray,
     for k, name in enumerate(names):
         sel = labels == k
         n = int(sel.sum())
-        entry = {"bin": name, "range": None if edges is None else [float(v) for v in edges[k]], "n": n,
-                 "share": n / max(len(r2), 1)}
+        span = None if edges is None else tuple(float(v) for v in edges[k])
+        share = n / max(len(r2), 1)
         if n == 0 or not overall > 0:
-            out.append({**entry, "gap": None, "ratio": None, "interval": None})
+            out.append(Bin(name, span, n, share))
             continue
         mean = float(np.mean(r2[sel]))
         dof = max(1.0, n * effective)
         lo = mean * dof / stats.chi2.ppf(0.5 + level / 2, dof)
         hi = mean * dof / stats.chi2.ppf(0.5 - level / 2, dof)
-        out.append({**entry, "gap": mean / deviation_power, "ratio": mean / overall,
-                    "interval": [lo / overall, hi / overall]})
+        out.append(Bin(name, span, n, share, gap=mean / deviation_power, ratio=mean / overall,
+                       interval=(lo / overall, hi / overall)))
     return out
 
 
