@@ -1,7 +1,8 @@
 """The diagnosis PDF: the gap map over time, frequency and regime, the ranked effects with
 before/after, and the residual before and after the chosen effects.
 
-Plotting only (non-interactive Agg backend, Figure objects, PdfPages); the numbers come from a
+Plotting only: :class:`matplotlib.figure.Figure` objects written by ``PdfPages``, without pyplot
+and without choosing a backend (a notebook's stays as it is); the numbers come from a
 :class:`~limbstiff.diagnosis.result.Diagnosis`. Written atomically.
 """
 
@@ -256,8 +257,6 @@ def write_diagnosis_report(diagnosis, path) -> None:
     :data:`MAX_TRIAL_PAGES`) the gap map over time, frequency and regime, and the residual
     before and after the chosen effects with its autocorrelation and cross-correlation.
     """
-    import matplotlib
-    matplotlib.use("Agg")
     from matplotlib.backends.backend_pdf import PdfPages
     from matplotlib.figure import Figure
 
