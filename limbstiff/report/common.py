@@ -8,7 +8,6 @@ inside the functions only.
 from __future__ import annotations
 
 import contextlib
-import gc
 import logging
 import textwrap
 import threading
@@ -64,25 +63,16 @@ _STYLE_LOCK = threading.RLock()
 
 @contextlib.contextmanager
 def style():
-    """Font sizes, fonts and grid of the reports, for the figures built and drawn inside the block.
-
-    The cyclic garbage collector is paused inside the block: a report makes some 10⁵ short-lived
-    objects, and each collection they trigger walks every object of the process, which after an
-    analysis is most of the work (profiled: a fifth of a trial report's time).
-    """
+    """Font sizes, fonts and grid of the reports, for the figures built and drawn inside the block."""
     import matplotlib
     notice = _WeightNotice()
     log = logging.getLogger("matplotlib.font_manager")
     with _STYLE_LOCK, matplotlib.rc_context(_RC):
-        collecting = gc.isenabled()
-        gc.disable()
         log.addFilter(notice)
         try:
             yield
         finally:
             log.removeFilter(notice)
-            if collecting:
-                gc.enable()
 
 
 def page_fonts(fig) -> dict:
