@@ -25,6 +25,7 @@ f = m·ÿ + b·ẏ + s + e, so a positive friction torque opposes motion.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -37,25 +38,46 @@ from .kinds import ChannelCorrection, ModelEffect, MechanicsOffset, TorqueEffect
 
 # --- shapes -------------------------------------------------------------------------------
 
-_MOVES: dict = {}
+@dataclass(frozen=True)
+class Movements:
+    """Movement events of a trial's recorded angle, read through a play just wider than its noise.
+
+    Parameters
+    ----------
+    play : ndarray, shape (n,), rad
+        The recorded angle through the play.
+    moves : ndarray of int, shape (k,)
+        Samples where that moves.
+    signs : ndarray, shape (k,)
+        The direction of each move (±1).
+    """
+
+    play: np.ndarray
+    moves: np.ndarray
+    signs: np.ndarray
+
+    @classmethod
+    def of(cls, ch: Channels) -> "Movements":
+        """The movements of ``ch.raw_angle`` through a play of the encoder step, or six angle-noise
+        standard deviations, whichever is wider."""
+        raw = ch.raw_angle
+        eps = max(1.01 * ch.quantisation_step, 6.0 * ch.angle_noise, 1e-12 * max(np.ptp(raw), 1e-300))
+        p = play(raw, eps)
+        dp = np.diff(p, prepend=p[0])
+        moves = np.flatnonzero(dp != 0)
+        return cls(p, moves, np.sign(dp[moves]))
 
 
-def _movements(ch: Channels):
-    """Movement events of the recorded angle: play output p, event indices, their signs (cached)."""
-    import weakref
-    raw = ch.raw_angle
-    hit = _MOVES.get(id(raw))
-    if hit is not None and hit[0]() is raw:
-        return hit[1]
-    eps = max(1.01 * ch.quantisation_step, 6.0 * ch.angle_noise, 1e-12 * max(np.ptp(raw), 1e-300))
-    p = play(raw, eps)
-    dp = np.diff(p, prepend=p[0])
-    moves = np.flatnonzero(dp != 0)
-    out = (p, moves, np.sign(dp[moves]))
-    for key in [k for k, v in _MOVES.items() if v[0]() is None]:
-        del _MOVES[key]
-    _MOVES[id(raw)] = (weakref.ref(raw), out)
-    return out
+def _movements(ch: Channels) -> Movements:
+    """:meth:`Movements.of` ``ch``, computed once per :class:`Channels` and kept on it (as
+    :meth:`Channels.linear_part` keeps its basis): a backlash is evaluated at every width of its
+    grid on the same channels, and the play is a loop over the samples. The channels are frozen,
+    so what determines the movements (raw angle, encoder step, noise) cannot change under them."""
+    known = ch.__dict__.get("_movements")
+    if known is None:
+        known = Movements.of(ch)
+        object.__setattr__(ch, "_movements", known)
+    return known
 
 
 def backlash_direction(ch: Channels, width: float) -> np.ndarray:
@@ -69,7 +91,8 @@ def backlash_direction(ch: Channels, width: float) -> np.ndarray:
     just wider than the encoder step, or six noise standard deviations, so that noise does not count.
     """
     n = ch.n
-    p, moves, s = _movements(ch)
+    mv = _movements(ch)
+    p, moves, s = mv.play, mv.moves, mv.signs
     if moves.size == 0:
         return np.zeros(n)
     d = s[np.maximum(np.searchsorted(moves, np.arange(n), side="right") - 1, 0)].astype(float)
