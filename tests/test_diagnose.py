@@ -109,6 +109,26 @@ def test_sign_flip_test_and_holm():
     assert adj == {"a": 0.03, "c": 0.06, "b": 0.06}
 
 
+def test_parts_become_json_by_their_fields():
+    # a part's fields are its JSON keys, in order; an optional key is left out when None
+    from dataclasses import replace
+    from limbstiff.diagnosis.result import After, Mechanics, StiffnessBias, TrialBias, jsonable
+    bias = StiffnessBias(per_trial={"t": TrialBias(60.0, None, None, error="why")}, median_relative=None)
+    after = After(effects=(), gap_train=0.1, gap_heldout=float("nan"), shrink_heldout=None,
+                  shrink_heldout_interval=(0.0, 0.0), params={}, units={}, stiffness_walk=(1.0,), mechanics=None,
+                  stiffness_bias=bias)
+    data = jsonable(after)
+    assert list(data) == ["effects", "gap_train", "gap_heldout", "shrink_heldout", "shrink_heldout_interval", "params",
+                          "units", "stiffness_walk", "stiffness_bias"]
+    assert data["gap_heldout"] is None and data["effects"] == [] and data["shrink_heldout_interval"] == [0.0, 0.0]
+    assert data["stiffness_bias"] == {"per_trial": {"t": {"nominal": 60.0, "corrected": None, "relative": None,
+                                                          "error": "why"}}, "median_relative": None}
+    assert list(jsonable(TrialBias(60.0, 59.0, 60 / 59 - 1))) == ["nominal", "corrected", "relative"]
+    with_mechanics = jsonable(replace(after, mechanics={"t": Mechanics(0.01, 1.0)}))
+    assert list(with_mechanics)[-2:] == ["mechanics", "stiffness_bias"]
+    assert with_mechanics["mechanics"] == {"t": {"inertia": 0.01, "damping": 1.0}}
+
+
 # --- the library: effects as objects --------------------------------------------------------------
 
 def test_every_effect_knows_its_parameters_grid_and_removal():
