@@ -26,6 +26,13 @@ def test_help_lists_commands():
         assert name in res.output
 
 
+def test_analyze_offers_the_protocols_estimators():
+    from limbstiff.cli.analyze import command
+    from limbstiff.protocol import ESTIMATORS
+    option = next(p for p in command.params if p.name == "estimator")
+    assert tuple(option.type.choices) == ESTIMATORS
+
+
 def test_analyze_writes_the_contract(trial_file, tmp_path):
     path = trial_file("t1")
     out = tmp_path / "out"

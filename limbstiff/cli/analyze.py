@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from ..protocol import ESTIMATORS
 from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
                       protocol_option, reports_errors, scheduler_option, seed_option)
 
@@ -22,7 +23,7 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
               help="Fix the damping b (N·m·s/rad, or N·s/m) instead of identifying it.")
 @click.option("--gain", "observer_gain", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Fix the observer gain α (1/rad or 1/m) instead of deriving it from the data.")
-@click.option("--estimator", type=click.Choice(["kalman", "observer-smoothed", "observer"]), default=None,
+@click.option("--estimator", type=click.Choice(ESTIMATORS), default=None,
               help="Estimator (default kalman: Kalman filter and RTS smoother).")
 @click.option("--reference", "reference_path", type=click.Path(dir_okay=False), default=None,
               help="Calibration JSON from 'limbstiff calibrate', used as reference stiffness.")
