@@ -136,6 +136,27 @@ def test_folders_are_searched_for_every_trial_format(tmp_path):
     assert [p.name for p in discover([tmp_path / "README.txt"])] == ["README.txt"]     # named: taken
 
 
+def test_folders_are_searched_for_the_types_read_trial_reads(tmp_path):
+    # one registry: every type read_trial accepts is found in a folder and every type found is
+    # accepted, but .txt (read when named; a data folder's README.txt is not a trial)
+    from limbstiff.batch.discovery import discover
+    from limbstiff.errors import TrialError
+    from limbstiff.files.read import EXTENSIONS, read_trial
+    candidates = [*EXTENSIONS, ".xlsx", ".json", ".md", ".h5"]
+    for ext in candidates:
+        (tmp_path / f"t{ext.upper()}").write_text("x")
+    found = {p.suffix.lower() for p in discover([tmp_path])}
+    accepted = set()
+    for ext in candidates:
+        try:
+            read_trial(tmp_path / f"t{ext.upper()}")
+        except TrialError as exc:
+            if "unknown file type" not in str(exc):
+                accepted.add(ext)
+    assert found == accepted - {".txt"} and ".txt" in accepted
+    assert {".csv", ".tsv", ".mat", ".c3d"} <= found
+
+
 def _stamps(out):
     return {p: p.stat().st_mtime_ns for p in sorted(out.rglob("*")) if p.is_file() and p.name != "summary.csv"}
 

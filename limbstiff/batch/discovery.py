@@ -1,7 +1,7 @@
 """Which files a batch analyses, and the output folder name of each.
 
-Folders are searched recursively for trial files; files and globs are taken as named.
-Standard library only.
+Folders are searched recursively for the file types the reader marks for folders
+(:data:`limbstiff.files.read.FOLDER_EXTENSIONS`); files and globs are taken as named.
 """
 
 from __future__ import annotations
@@ -12,10 +12,8 @@ from pathlib import Path
 from typing import Iterable, Sequence
 
 from ..errors import LimbstiffError
+from ..files.read import FOLDER_EXTENSIONS
 
-#: What folders are searched for. ``.txt`` is read when named, but not searched for: a data
-#: folder's README.txt or notes would otherwise become failed trials.
-FOLDER_EXTENSIONS = (".csv", ".tsv", ".mat", ".c3d")
 
 class NothingToDo(LimbstiffError):
     """No trial file was found in the paths given."""

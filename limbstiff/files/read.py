@@ -6,23 +6,72 @@
 | ``.mat`` | :func:`limbstiff.files.mat.read_mat` (MATLAB v4–v7; v7.3/HDF5 is refused) |
 | ``.c3d`` | :func:`limbstiff.files.c3d.read_c3d` (through a protocol; the optional ``ezc3d`` extra) |
 
-Every reader ends in :func:`limbstiff.files.validate.checked_trial`, so a trial is checked the
-same way whatever its format.
+:data:`EXTENSIONS` is the one registry of file types: :func:`read_trial` reads what it lists,
+and a batch searches folders for the types it marks ``in_folders``
+(:data:`FOLDER_EXTENSIONS`). Every reader ends in
+:func:`limbstiff.files.validate.checked_trial`, so a trial is checked the same way whatever
+its format.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Callable
 
 from ..errors import TrialError
+from ..frozen import FrozenDict
 from ..trial import Trial
 from .validate import read_bytes
 
-#: Accepted extensions (lower case) and the module whose reader handles them.
-EXTENSIONS = {".csv": "text", ".tsv": "text", ".txt": "text", ".mat": "mat", ".c3d": "c3d"}
+if TYPE_CHECKING:
+    from ..protocol import Protocol
 
 
-def read_trial(path, protocol=None, *, name: str | None = None) -> Trial:
+def _read_text(path: Path, raw: bytes, protocol: Protocol | None, name: str | None) -> Trial:
+    from .text import read_text
+    return read_text(path, raw, protocol, name=name)
+
+
+def _read_mat(path: Path, raw: bytes, protocol: Protocol | None, name: str | None) -> Trial:
+    from .mat import read_mat
+    return read_mat(path, raw, protocol, name=name)
+
+
+def _read_c3d(path: Path, raw: bytes, protocol: Protocol | None, name: str | None) -> Trial:
+    from .c3d import read_c3d
+    return read_c3d(path, raw, protocol, name=name)
+
+
+@dataclass(frozen=True)
+class FileType:
+    """A trial-file type: how it is read and whether folders are searched for it.
+
+    Parameters
+    ----------
+    read : callable (path, raw, protocol, name) -> Trial
+        The reader, given the file's path, its bytes, the protocol (or None) and the trial
+        name (None: the file stem); its module is imported only when such a file is read.
+    in_folders : bool
+        Whether a batch searches folders for files of this type (files named explicitly are
+        read whatever this says).
+    """
+
+    read: Callable[[Path, bytes, "Protocol | None", str | None], Trial]
+    in_folders: bool = True
+
+
+#: Accepted extensions (lower case) and their file types, in the order error messages list them.
+#: ``.txt`` is read when named but not searched for: a data folder's README.txt or notes would
+#: otherwise become failed trials.
+EXTENSIONS = FrozenDict({".csv": FileType(_read_text), ".tsv": FileType(_read_text),
+                         ".txt": FileType(_read_text, in_folders=False), ".mat": FileType(_read_mat),
+                         ".c3d": FileType(_read_c3d)})
+#: The extensions a batch searches folders for.
+FOLDER_EXTENSIONS = tuple(ext for ext, file_type in EXTENSIONS.items() if file_type.in_folders)
+
+
+def read_trial(path, protocol: Protocol | None = None, *, name: str | None = None) -> Trial:
     """Read one trial file into a :class:`~limbstiff.trial.Trial` in SI units.
 
     Parameters
@@ -53,17 +102,9 @@ def read_trial(path, protocol=None, *, name: str | None = None) -> Trial:
     path = Path(path)
     if path.is_dir():
         raise TrialError(str(path), "is a directory, not a trial file")
-    reader = EXTENSIONS.get(path.suffix.lower())
-    if reader is None:
+    file_type = EXTENSIONS.get(path.suffix.lower())
+    if file_type is None:
         accepted = ", ".join(EXTENSIONS)
         raise TrialError(str(path), f"unknown file type '{path.suffix or '(no extension)'}' "
                                     f"(accepted: {accepted})")
-    raw = read_bytes(path)
-    if reader == "mat":
-        from .mat import read_mat
-        return read_mat(path, raw, protocol, name=name)
-    if reader == "c3d":
-        from .c3d import read_c3d
-        return read_c3d(path, raw, protocol, name=name)
-    from .text import read_text
-    return read_text(path, raw, protocol, name=name)
+    return file_type.read(path, read_bytes(path), protocol, name)
