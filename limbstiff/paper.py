@@ -96,14 +96,14 @@ def fig7_antagonistic_link(model: str, *, inertia_error: float = 0.0, damping_er
     b(d) = 2β|θ̇| (Sec. II), each scaled by (1 + error) to reproduce Fig. 8.
     """
     trial, truth = simulate_with_truth(f"paper-vsa-{model}", params={"fs": fs, "duration": duration})
-    return _external(trial, truth, inertia=truth["inertia"] * (1 + inertia_error),
-                     damping=truth["damping"] * (1 + damping_error), name=model)
+    return _external(trial, truth, inertia=truth.inertia * (1 + inertia_error),
+                     damping=truth.generalized_damping * (1 + damping_error), name=model)
 
 
 def fig9_exponential_vsa(*, fs: float = 1000.0, duration: float = 30.0) -> Tracking:
     """Fig. 9: the link on two exponential springs; no forcing between 10 s and 20 s."""
     trial, truth = simulate_with_truth("paper-vsa-exp", params={"fs": fs, "duration": duration})
-    return _external(trial, truth, inertia=truth["inertia"], damping=truth["damping"], name="exp-vsa")
+    return _external(trial, truth, inertia=truth.inertia, damping=truth.generalized_damping, name="exp-vsa")
 
 
 def _external(trial, truth, *, inertia, damping, name) -> Tracking:

@@ -35,25 +35,25 @@ def test_coupled_records_device_angle_and_sensor_torque():
     trial, truth = coupled()
     p = SCENARIOS["ankle-coupled"].defaults
     ts, inner = trial.sample_period, slice(2, -2)
-    np.testing.assert_array_equal(trial.angle, truth["angle"])
-    np.testing.assert_array_equal(trial.torque, truth["external_torque"])
+    np.testing.assert_array_equal(trial.angle, truth.angle)
+    np.testing.assert_array_equal(trial.torque, truth.external_torque)
     np.testing.assert_array_equal(trial.stiffness_true, p["stiffness"])
     # The limb's motion integrates its equation: finite differences of the RK4 solution.
-    yl, vl = truth["limb_angle"], truth["limb_velocity"]
+    yl, vl = truth.limb.angle, truth.limb.velocity
     acc = derivative(vl, ts)
     np.testing.assert_allclose(derivative(yl, ts)[inner], vl[inner],
                                atol=1e-4 * np.max(np.abs(vl)))
     limb = (p["limb_inertia"] * acc + p["limb_damping"] * vl + p["stiffness"] * yl
-            - truth["coupling_torque"])
-    scale = np.std(truth["external_torque"])
+            - truth.limb.coupling_torque)
+    scale = np.std(truth.external_torque)
     assert np.max(np.abs(limb[inner])) < 1e-3 * scale
     # The sensor torque moves both bodies: f = I_d·θ̈_d + I_l·θ̈_l + B_l·θ̇_l + K·θ_l.
-    both = (p["device_inertia"] * derivative(truth["velocity"], ts) + p["limb_inertia"] * acc
+    both = (p["device_inertia"] * derivative(truth.velocity, ts) + p["limb_inertia"] * acc
             + p["limb_damping"] * vl + p["stiffness"] * yl)
-    assert np.max(np.abs(both - truth["external_torque"])[inner]) < 1e-3 * scale
+    assert np.max(np.abs(both - truth.external_torque)[inner]) < 1e-3 * scale
     kc = coupling_stiffness(p["limb_inertia"], p["stiffness"], p["coupling_frequency"])
-    coupling = kc * (truth["angle"] - yl) + p["coupling_damping"] * (truth["velocity"] - vl)
-    np.testing.assert_allclose(truth["coupling_torque"], coupling, rtol=1e-5, atol=1e-9)
+    coupling = kc * (truth.angle - yl) + p["coupling_damping"] * (truth.velocity - vl)
+    np.testing.assert_allclose(truth.limb.coupling_torque, coupling, rtol=1e-5, atol=1e-9)
 
 
 @pytest.mark.parametrize("fc", [20.0, 35.0, 60.0])
@@ -66,7 +66,7 @@ def test_coupling_resonance_is_the_parameter(fc):
                           p["coupling_damping"])
     assert fn == pytest.approx(fc, rel=1e-5)
     assert float(trial.metadata["coupling_resonance_hz"]) == pytest.approx(fc, rel=1e-5)
-    assert truth["internal_step"] <= 1.0 / (20.0 * fc)
+    assert truth.internal_step <= 1.0 / (20.0 * fc)
 
 
 def test_simulated_limb_resonates_at_the_parameter():
@@ -74,8 +74,8 @@ def test_simulated_limb_resonates_at_the_parameter():
     fc, fs = 35.0, 1000.0
     trial, truth = coupled(duration=20.0, cutoff=60.0, hold_min=0.05, hold_max=0.1)
     kc, bc = float(trial.metadata["coupling_stiffness"]), 0.3
-    f, pxy = csd(truth["angle"], truth["limb_angle"], fs=fs, nperseg=2000)
-    _, pxx = welch(truth["angle"], fs=fs, nperseg=2000)
+    f, pxy = csd(truth.angle, truth.limb.angle, fs=fs, nperseg=2000)
+    _, pxx = welch(truth.angle, fs=fs, nperseg=2000)
     h = pxy / pxx                                           # θ_l/θ_d
     band = (f > 10) & (f < 80)
     real = ((kc + 1j * bc * 2 * np.pi * f) / h).real[band]  # K + k_c − I_l·ω²
@@ -92,11 +92,11 @@ def test_low_frequency_limb_tracks_device_and_one_body_bias():
     kc = float(trial.metadata["coupling_stiffness"])
     k = p["stiffness"]
     ratio = kc / (k + kc)
-    yd, yl = truth["angle"], truth["limb_angle"]
+    yd, yl = truth.angle, truth.limb.angle
     assert np.max(np.abs(yl - ratio * yd)) < 0.02 * np.max(np.abs(yd))
     assert np.corrcoef(yd, yl)[0, 1] > 0.999
-    x = np.column_stack([truth["acceleration"], truth["velocity"], yd])
-    (i_fit, b, k_fit), *_ = np.linalg.lstsq(x[1000:], truth["external_torque"][1000:], rcond=None)
+    x = np.column_stack([truth.acceleration, truth.velocity, yd])
+    (i_fit, b, k_fit), *_ = np.linalg.lstsq(x[1000:], truth.external_torque[1000:], rcond=None)
     expected = one_body_equivalent(p["device_inertia"], p["limb_inertia"], p["limb_damping"],
                                    k, kc, p["coupling_damping"])
     assert expected["stiffness"] == pytest.approx(k * kc / (k + kc))
@@ -117,10 +117,10 @@ def test_coupled_effects_act_on_the_limb():
     params = {"duration": 3.0, "torque_noise": 0.0}
     _, nominal = simulate_with_truth("ankle-coupled", params=params)
     trial, truth = simulate_with_truth("ankle-coupled", params=params, effect="reflex")
-    np.testing.assert_array_equal(truth["angle"], nominal["angle"])    # device imposed
-    assert not np.allclose(truth["limb_angle"], nominal["limb_angle"])
+    np.testing.assert_array_equal(truth.angle, nominal.angle)    # device imposed
+    assert not np.allclose(truth.limb.angle, nominal.limb.angle)
     assert float(trial.metadata["effect.delay"]) == pytest.approx(0.04, abs=2.5e-4)
-    assert np.max(np.abs(truth["effect_torque"][truth["time"] < 0.04])) == 0.0
+    assert np.max(np.abs(truth.effect_torque[truth.time < 0.04])) == 0.0
     trial = simulate("ankle-coupled", params=params, effect="inertia_error")
     assert float(trial.metadata["true_inertia"]) == pytest.approx(1.2 * 0.01)
 
@@ -151,22 +151,22 @@ def test_platform_angle_has_no_slow_component_but_torque_has(platform):
     trial, truth = platform
     p = SCENARIOS["ankle-platform"].defaults
     swing = p["operating_angle_max"] - p["operating_angle_min"]
-    np.testing.assert_allclose(truth["angle"] - truth["unrecorded_angle"], trial.angle)
-    np.testing.assert_allclose(truth["unrecorded_angle"], truth["control"])
-    assert np.ptp(truth["control"]) == pytest.approx(swing, rel=1e-6)
+    np.testing.assert_allclose(truth.angle - truth.unrecorded_angle, trial.angle)
+    np.testing.assert_allclose(truth.unrecorded_angle, truth.control)
+    assert np.ptp(truth.control) == pytest.approx(swing, rel=1e-6)
     slow_angle = moving_average(trial.angle, 5000)
     assert np.max(np.abs(slow_angle)) < 0.03 * swing
     _, s0 = operating_point_stiffness(p)
     slow_torque = moving_average(trial.torque, 5000)
     assert np.ptp(slow_torque) > 0.8 * (s0(0.2) - s0(-0.4)) > 15.0
     # The torque's slow part is the elastic torque of the operating point.
-    expected = moving_average(s0(truth["control"]), 5000)
+    expected = moving_average(s0(truth.control), 5000)
     assert np.max(np.abs(slow_torque - expected)) < 0.1 * np.ptp(expected)
 
 
 def test_platform_stiffness_follows_the_operating_point(platform):
     trial, truth = platform
-    phi, sigma = truth["control"], trial.stiffness_true
+    phi, sigma = truth.control, trial.stiffness_true
     order = np.argsort(phi)
     assert np.all(np.diff(sigma[order]) >= -1e-9)
     assert sigma[np.argmin(phi)] == pytest.approx(15.0, abs=0.1)
@@ -196,7 +196,7 @@ def test_platform_steps_size_and_timing(platform):
 def test_platform_reaction_torque_sign():
     params = {"duration": 2.0, "torque_noise": 0.0, "reaction_torque": 1.0}
     trial, truth = simulate_with_truth("ankle-platform", seed=1, params=params)
-    np.testing.assert_array_equal(trial.torque, -truth["external_torque"])
+    np.testing.assert_array_equal(trial.torque, -truth.external_torque)
     assert trial.metadata["torque_recorded"].startswith("reaction")
     with pytest.raises(ValueError, match="reaction_torque"):
         simulate("ankle-platform", params={"duration": 1.0, "reaction_torque": 0.5})

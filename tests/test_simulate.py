@@ -91,7 +91,7 @@ def test_same_seed_same_arrays(name):
 def test_different_seeds_differ(name):
     a = simulate_with_truth(name, seed=1, params=quiet(name, duration=2.0))[1]
     b = simulate_with_truth(name, seed=2, params=quiet(name, duration=2.0))[1]
-    assert not np.allclose(a["angle"], b["angle"])
+    assert not np.allclose(a.angle, b.angle)
 
 
 def test_noise_differs_between_seeds_and_has_given_sd():
@@ -100,14 +100,14 @@ def test_noise_differs_between_seeds_and_has_given_sd():
     b, _ = simulate_with_truth("paper-vsa-hogan", seed=2, params=params)
     assert not np.array_equal(a.torque, b.torque)
     np.testing.assert_array_equal(a.angle, b.angle)
-    assert np.std(a.torque - ta["external_torque"]) == pytest.approx(0.01, rel=0.05)
+    assert np.std(a.torque - ta.external_torque) == pytest.approx(0.01, rel=0.05)
 
 
 def test_encoder_quantisation():
     trial, truth = simulate_with_truth("elbow", params={"duration": 1.0})
     q = 2 * math.pi / 8000
     np.testing.assert_allclose(trial.angle / q, np.round(trial.angle / q), atol=1e-6)
-    assert np.max(np.abs(trial.angle - truth["angle"])) <= q / 2 + 1e-12
+    assert np.max(np.abs(trial.angle - truth.angle)) <= q / 2 + 1e-12
     spring = simulate("paper-exp-spring", params={"duration": 1.0, "position_resolution": 1e-5})
     np.testing.assert_allclose(spring.angle / 1e-5, np.round(spring.angle / 1e-5), atol=1e-6)
 
@@ -117,7 +117,7 @@ def test_stiffness_is_derivative_of_elastic_torque(name, short_runs):
     sc = SCENARIOS[name]
     setup = sc.build({**sc.defaults, **SHORT[name]}, np.random.default_rng(0))
     _, truth = short_runs[name]
-    y, u = truth["angle"][::10], truth["control"][::10]
+    y, u = truth.angle[::10], truth.control[::10]
     if sc.kind == "rotational":       # also well outside the motion
         y = np.concatenate([y, np.linspace(-0.2, 0.2, y.size)])
         u = np.concatenate([u, u])
@@ -125,25 +125,25 @@ def test_stiffness_is_derivative_of_elastic_torque(name, short_runs):
     s = setup.joint.elastic_torque
     numeric = (s(y + d, u, np) - s(y - d, u, np)) / (2 * d)
     np.testing.assert_allclose(setup.joint.stiffness(y, u, np), numeric, rtol=1e-6, atol=1e-6)
-    np.testing.assert_allclose(truth["stiffness"], setup.joint.stiffness(
-        truth["angle"], truth["control"], np))
+    np.testing.assert_allclose(truth.stiffness, setup.joint.stiffness(
+        truth.angle, truth.control, np))
 
 
 @pytest.mark.parametrize("name", TORQUE_DRIVEN)
 def test_ode_solution_satisfies_equation_of_motion(name, short_runs):
     trial, truth = short_runs[name]
     ts = trial.sample_period
-    y, v = truth["angle"], truth["velocity"]
+    y, v = truth.angle, truth.velocity
     inner = slice(2, -2)
     np.testing.assert_allclose(derivative(y, ts)[inner], v[inner], atol=1e-4 * np.max(np.abs(v)))
     acc = derivative(v, ts)
-    np.testing.assert_allclose(acc[inner], truth["acceleration"][inner],
+    np.testing.assert_allclose(acc[inner], truth.acceleration[inner],
                                atol=1e-4 * np.max(np.abs(acc)))
-    residual = (truth["inertia"] * acc + truth["damping_torque"] + truth["elastic_torque"]
-                + truth["effect_torque"] - truth["external_torque"])
-    assert np.max(np.abs(residual[inner])) < 1e-4 * np.std(truth["external_torque"])
-    jerk = derivative(truth["acceleration"], ts)
-    np.testing.assert_allclose(jerk[inner], truth["jerk"][inner], atol=1e-3 * np.max(np.abs(jerk)))
+    residual = (truth.inertia * acc + truth.damping_torque + truth.elastic_torque
+                + truth.effect_torque - truth.external_torque)
+    assert np.max(np.abs(residual[inner])) < 1e-4 * np.std(truth.external_torque)
+    jerk = derivative(truth.acceleration, ts)
+    np.testing.assert_allclose(jerk[inner], truth.jerk[inner], atol=1e-3 * np.max(np.abs(jerk)))
 
 
 @pytest.mark.parametrize("name", ["paper-exp-spring", "ankle", "ankle-platform"])
@@ -152,12 +152,12 @@ def test_position_drive_derivatives_are_exact(name, short_runs):
     ts = trial.sample_period
     for low, high in (("angle", "velocity"), ("velocity", "acceleration"),
                       ("acceleration", "jerk")):
-        numeric = derivative(truth[low], ts)[2:-2]
-        np.testing.assert_allclose(numeric, truth[high][2:-2],
-                                   atol=1e-3 * np.max(np.abs(truth[high])))
-    external = (truth["inertia"] * truth["acceleration"] + truth["damping_torque"]
-                + truth["elastic_torque"])
-    np.testing.assert_allclose(truth["external_torque"], external)
+        numeric = derivative(getattr(truth, low), ts)[2:-2]
+        np.testing.assert_allclose(numeric, getattr(truth, high)[2:-2],
+                                   atol=1e-3 * np.max(np.abs(getattr(truth, high))))
+    external = (truth.inertia * truth.acceleration + truth.damping_torque
+                + truth.elastic_torque)
+    np.testing.assert_allclose(truth.external_torque, external)
 
 
 @pytest.mark.parametrize("effect", ["reflex", "hysteresis", "coulomb_friction", "gravity",
@@ -165,20 +165,20 @@ def test_position_drive_derivatives_are_exact(name, short_runs):
 def test_ode_with_effect_satisfies_equation_of_motion(effect):
     trial, truth = simulate_with_truth("elbow", params=quiet("elbow", duration=2.0),
                                        effect=effect)
-    acc = derivative(truth["velocity"], trial.sample_period)
-    residual = (truth["inertia"] * acc + truth["damping_torque"] + truth["elastic_torque"]
-                + truth["effect_torque"] - truth["external_torque"])
+    acc = derivative(truth.velocity, trial.sample_period)
+    residual = (truth.inertia * acc + truth.damping_torque + truth.elastic_torque
+                + truth.effect_torque - truth.external_torque)
     # Finite differences are poor only at the kinks of friction/reflex (reversals, onsets).
-    assert np.max(np.abs(residual[2:-2])) < 1e-2 * np.std(truth["external_torque"])
-    assert np.median(np.abs(residual[2:-2])) < 1e-5 * np.std(truth["external_torque"])
+    assert np.max(np.abs(residual[2:-2])) < 1e-2 * np.std(truth.external_torque)
+    assert np.median(np.abs(residual[2:-2])) < 1e-5 * np.std(truth.external_torque)
     # Convergence: a 4× smaller internal step gives the same motion.
     used = {k.split(".", 1)[1]: float(v) for k, v in trial.metadata.items()
             if k.startswith("effect.")}
     _, fine = simulate_with_truth("elbow", params=quiet("elbow", duration=2.0, fs=4000.0),
                                   effect=effect, effect_params=used)
-    assert fine["internal_step"] == truth["internal_step"] / 4
-    np.testing.assert_allclose(fine["angle"][::4], truth["angle"],
-                               atol=1e-5 * np.max(np.abs(truth["angle"])))
+    assert fine.internal_step == truth.internal_step / 4
+    np.testing.assert_allclose(fine.angle[::4], truth.angle,
+                               atol=1e-5 * np.max(np.abs(truth.angle)))
 
 
 def test_internal_step_bounds():
@@ -194,13 +194,13 @@ def test_exp_spring_deformation_and_springs():
     for spring, (a, b) in EXP_SPRINGS.items():
         trial, truth = simulate_with_truth("paper-exp-spring",
                                            params={"spring": spring, "duration": 5.0})
-        y = truth["angle"]
+        y = truth.angle
         assert y.min() == pytest.approx(0.0025, abs=1e-9)
         assert y.max() == pytest.approx(0.0225, abs=1e-6)
-        assert y[0] == pytest.approx(0.0025) and truth["velocity"][0] == pytest.approx(0.0)
+        assert y[0] == pytest.approx(0.0025) and truth.velocity[0] == pytest.approx(0.0)
         np.testing.assert_allclose(trial.torque, trial.elastic_torque)
-        np.testing.assert_allclose(truth["elastic_torque"], a * np.exp(100 * b * y))
-        np.testing.assert_allclose(truth["stiffness"], 100 * a * b * np.exp(100 * b * y))
+        np.testing.assert_allclose(truth.elastic_torque, a * np.exp(100 * b * y))
+        np.testing.assert_allclose(truth.stiffness, 100 * a * b * np.exp(100 * b * y))
         setup = SCENARIOS["paper-exp-spring"].build(
             {**SCENARIOS["paper-exp-spring"].defaults, "spring": spring}, None)
         assert setup.joint.elastic_torque(0.02, 0.0, math) == pytest.approx(2.7 * b)
@@ -210,30 +210,30 @@ def test_exp_spring_deformation_and_springs():
 def test_vsa_motion_ranges_match_documentation(long_links):
     for name in ("paper-vsa-hogan", "paper-vsa-feldman"):
         truth = long_links[name]
-        assert 0.025 < np.max(np.abs(truth["angle"])) <= 0.031
-        assert np.max(np.abs(truth["angle"][:2000])) < 0.023       # quasi-static start
-        assert np.max(np.abs(truth["velocity"])) <= 0.16
-        assert np.all(truth["stiffness"] > 0.35)
-        np.testing.assert_allclose(truth["damping"], 2.0 * np.abs(truth["velocity"]))
-        assert truth["inertia"] == 0.05
+        assert 0.025 < np.max(np.abs(truth.angle)) <= 0.031
+        assert np.max(np.abs(truth.angle[:2000])) < 0.023       # quasi-static start
+        assert np.max(np.abs(truth.velocity)) <= 0.16
+        assert np.all(truth.stiffness > 0.35)
+        np.testing.assert_allclose(truth.generalized_damping, 2.0 * np.abs(truth.velocity))
+        assert truth.inertia == 0.05
     hogan, feldman = long_links["paper-vsa-hogan"], long_links["paper-vsa-feldman"]
-    assert hogan["stiffness"].min() == pytest.approx(0.4, abs=0.01)
-    assert hogan["stiffness"].max() == pytest.approx(1.7, abs=0.01)
-    assert feldman["stiffness"].min() == pytest.approx(0.6 * math.pi / 3 - 0.1, abs=0.01)
-    assert feldman["stiffness"].max() == pytest.approx(0.6 * math.pi - 0.1, abs=0.01)
+    assert hogan.stiffness.min() == pytest.approx(0.4, abs=0.01)
+    assert hogan.stiffness.max() == pytest.approx(1.7, abs=0.01)
+    assert feldman.stiffness.min() == pytest.approx(0.6 * math.pi / 3 - 0.1, abs=0.01)
+    assert feldman.stiffness.max() == pytest.approx(0.6 * math.pi - 0.1, abs=0.01)
     exp = long_links["paper-vsa-exp"]
-    assert np.max(np.abs(exp["angle"])) <= 0.013
-    assert np.max(np.abs(exp["velocity"])) <= 0.07
-    pause = (exp["time"] > 11.5) & (exp["time"] < 20.0)
-    assert np.max(np.abs(exp["angle"][pause])) < 1e-3
-    assert exp["stiffness"][-1] / exp["stiffness"][0] > 8
+    assert np.max(np.abs(exp.angle)) <= 0.013
+    assert np.max(np.abs(exp.velocity)) <= 0.07
+    pause = (exp.time > 11.5) & (exp.time < 20.0)
+    assert np.max(np.abs(exp.angle[pause])) < 1e-3
+    assert exp.stiffness[-1] / exp.stiffness[0] > 8
 
 
 def test_include_elastic_records_elastic_torque():
     trial, truth = simulate_with_truth("paper-vsa-feldman",
                                        params={"duration": 2.0, "include_elastic": 1})
     assert trial.variant == "direct"
-    np.testing.assert_allclose(trial.elastic_torque, truth["elastic_torque"])
+    np.testing.assert_allclose(trial.elastic_torque, truth.elastic_torque)
     assert simulate("paper-vsa-feldman", params={"duration": 2.0}).variant == "external"
 
 
@@ -242,11 +242,11 @@ def test_include_elastic_records_elastic_torque():
 def test_elbow_amplitude_ramp_and_pause():
     trial, truth = simulate_with_truth("elbow", params={"duration": 20.0, "pause_start": 12.0,
                                                         "pause_duration": 3.0})
-    assert 0.03 < np.max(np.abs(truth["angle"])) < 0.06
-    assert truth["stiffness"][0] == pytest.approx(6.0)
-    assert truth["stiffness"][-1] == pytest.approx(30.0)
-    quiet_part = (truth["time"] > 12.1) & (truth["time"] < 14.9)
-    assert np.all(truth["external_torque"][quiet_part] == 0)
+    assert 0.03 < np.max(np.abs(truth.angle)) < 0.06
+    assert truth.stiffness[0] == pytest.approx(6.0)
+    assert truth.stiffness[-1] == pytest.approx(30.0)
+    quiet_part = (truth.time > 12.1) & (truth.time < 14.9)
+    assert np.all(truth.external_torque[quiet_part] == 0)
     assert trial.metadata["true_inertia"] == "0.06" and trial.metadata["true_damping"] == "0.45"
 
 
@@ -257,25 +257,25 @@ def test_elbow_amplitude_ramp_and_pause():
 def test_nonlinear_and_varying_stiffness(name, extra):
     trial, truth = simulate_with_truth(name, params=extra)
     setup = SCENARIOS[name].build({**SCENARIOS[name].defaults, **extra}, np.random.default_rng(0))
-    y, u, d = truth["angle"], truth["control"], 1e-6
+    y, u, d = truth.angle, truth.control, 1e-6
     s = setup.joint.elastic_torque
-    np.testing.assert_allclose(truth["stiffness"], (s(y + d, u, np) - s(y - d, u, np)) / (2 * d),
+    np.testing.assert_allclose(truth.stiffness, (s(y + d, u, np) - s(y - d, u, np)) / (2 * d),
                                rtol=1e-6)
-    assert np.ptp(truth["stiffness"]) > 0.1 * np.mean(truth["stiffness"]) or name == "elbow"
+    assert np.ptp(truth.stiffness) > 0.1 * np.mean(truth.stiffness) or name == "elbow"
     if name == "elbow":
-        assert abs(np.mean(truth["angle"]) - 0.3) < 0.01
-        assert np.max(truth["stiffness"]) > 6.0 * 1.05           # stiffening away from rest
-        acc = derivative(truth["velocity"], trial.sample_period)
-        residual = (truth["inertia"] * acc + truth["damping_torque"] + truth["elastic_torque"]
-                    - truth["external_torque"])
-        assert np.max(np.abs(residual[2:-2])) < 1e-4 * np.std(truth["external_torque"])
+        assert abs(np.mean(truth.angle) - 0.3) < 0.01
+        assert np.max(truth.stiffness) > 6.0 * 1.05           # stiffening away from rest
+        acc = derivative(truth.velocity, trial.sample_period)
+        residual = (truth.inertia * acc + truth.damping_torque + truth.elastic_torque
+                    - truth.external_torque)
+        assert np.max(np.abs(residual[2:-2])) < 1e-4 * np.std(truth.external_torque)
 
 
 def test_ankle_perturbation():
     _, truth = simulate_with_truth("ankle", params={"duration": 20.0})
-    assert 0.025 < np.max(np.abs(truth["angle"])) <= 0.03 + 1e-9
-    assert 0.5 < np.max(np.abs(truth["velocity"])) < 5.0
-    np.testing.assert_allclose(truth["stiffness"], 60.0)
+    assert 0.025 < np.max(np.abs(truth.angle)) <= 0.03 + 1e-9
+    assert 0.5 < np.max(np.abs(truth.velocity)) < 5.0
+    np.testing.assert_allclose(truth.stiffness, 60.0)
 
 
 # --- effects ----------------------------------------------------------------------------------
@@ -308,12 +308,12 @@ def test_elbow_reference_defaults():
 def test_time_delay_shifts_cross_correlation():
     trial, truth = simulate_with_truth("ankle", params=quiet("ankle", duration=10.0),
                                        effect="time_delay", effect_params={"delay": 0.025})
-    a = truth["external_torque"] - truth["external_torque"].mean()
+    a = truth.external_torque - truth.external_torque.mean()
     b = trial.torque - trial.torque.mean()
     lags = np.arange(-60, 61)
     xc = [np.dot(a[60:-60], np.roll(b, -k)[60:-60]) for k in lags]
     assert lags[int(np.argmax(xc))] == 25
-    np.testing.assert_array_equal(trial.angle, truth["angle"])
+    np.testing.assert_array_equal(trial.angle, truth.angle)
 
 
 @pytest.mark.parametrize("name", ["ankle", "elbow"])
@@ -323,7 +323,7 @@ def test_reflex_after_delay_in_stretch_direction_only(name, direction):
                                        effect_params={"direction": direction})
     delay = float(trial.metadata["effect.delay"])
     lag = int(round(delay * trial.fs))
-    r, v = truth["effect_torque"], truth["velocity"]
+    r, v = truth.effect_torque, truth.velocity
     assert np.all(r[:lag + 1] == 0)
     delayed = np.concatenate([np.zeros(lag), v[:-lag]])
     assert np.all(direction * r >= 0)
@@ -331,7 +331,7 @@ def test_reflex_after_delay_in_stretch_direction_only(name, direction):
     stretch = direction * delayed > 1e-3
     np.testing.assert_allclose(r[stretch], float(trial.metadata["effect.gain"]) * delayed[stretch],
                                rtol=1e-9)
-    ratio = np.std(r) / np.std(truth["external_torque"])
+    ratio = np.std(r) / np.std(truth.external_torque)
     assert 0.1 < ratio < 0.3
 
 
@@ -339,46 +339,46 @@ def test_coulomb_friction_has_sign_of_velocity():
     nominal = simulate("ankle", params=quiet("ankle"))
     trial, truth = simulate_with_truth("ankle", params=quiet("ankle"), effect="coulomb_friction")
     extra = trial.torque - nominal.torque
-    v = truth["velocity"]
+    v = truth.velocity
     moving = np.abs(v) > 0.05
     assert np.all(np.sign(extra[moving]) == np.sign(v[moving]))
     assert np.max(np.abs(extra)) <= float(trial.metadata["effect.friction_torque"]) + 1e-12
     # Torque drive: friction slows the joint down.
     _, free = simulate_with_truth("elbow", params=quiet("elbow"))
     _, rubbing = simulate_with_truth("elbow", params=quiet("elbow"), effect="coulomb_friction")
-    assert np.std(rubbing["velocity"]) < np.std(free["velocity"])
-    assert np.all(rubbing["effect_torque"][np.abs(rubbing["velocity"]) > 0.05]
-                  * rubbing["velocity"][np.abs(rubbing["velocity"]) > 0.05] > 0)
+    assert np.std(rubbing.velocity) < np.std(free.velocity)
+    assert np.all(rubbing.effect_torque[np.abs(rubbing.velocity) > 0.05]
+                  * rubbing.velocity[np.abs(rubbing.velocity) > 0.05] > 0)
 
 
 def test_quadratic_damping_and_gravity_torques():
     _, truth = simulate_with_truth("ankle", params=quiet("ankle"), effect="quadratic_damping",
                                    effect_params={"coefficient": 2.0})
-    v = truth["velocity"]
-    np.testing.assert_allclose(truth["effect_torque"], 2.0 * v * np.abs(v))
+    v = truth.velocity
+    np.testing.assert_allclose(truth.effect_torque, 2.0 * v * np.abs(v))
     _, free = simulate_with_truth("elbow", params=quiet("elbow"))
     _, heavy = simulate_with_truth("elbow", params=quiet("elbow"), effect="gravity")
-    np.testing.assert_allclose(heavy["effect_torque"], -1.2 * np.sin(heavy["angle"]))
-    assert np.std(heavy["angle"]) > np.std(free["angle"])      # gravity makes it look softer
+    np.testing.assert_allclose(heavy.effect_torque, -1.2 * np.sin(heavy.angle))
+    assert np.std(heavy.angle) > np.std(free.angle)      # gravity makes it look softer
 
 
 def test_hysteresis_dissipates_and_saturates():
     _, truth = simulate_with_truth("ankle", params=quiet("ankle"), effect="hysteresis",
                                    effect_params={"amplitude": 0.1, "characteristic_angle": 0.003})
-    z, y = truth["effect_torque"], truth["angle"]
+    z, y = truth.effect_torque, truth.angle
     assert np.max(np.abs(z)) <= 0.1 + 1e-12 and np.max(np.abs(z)) > 0.09
     assert np.sum(z[:-1] * np.diff(y)) > 0                    # positive work: a loop
     _, tdrive = simulate_with_truth("elbow", params=quiet("elbow"), effect="hysteresis")
-    z, y = tdrive["effect_torque"], tdrive["angle"]
+    z, y = tdrive.effect_torque, tdrive.angle
     assert np.sum(z[:-1] * np.diff(y)) > 0
 
 
 def test_backlash_dead_band():
     trial, truth = simulate_with_truth("ankle", params=quiet("ankle"), effect="backlash",
                                        effect_params={"width": 0.004})
-    gap = trial.angle - truth["angle"]
+    gap = trial.angle - truth.angle
     assert np.max(np.abs(gap)) <= 0.002 + 1e-12 and np.max(np.abs(gap)) > 0.0019
-    np.testing.assert_array_equal(trial.torque, truth["external_torque"])
+    np.testing.assert_array_equal(trial.torque, truth.external_torque)
     np.testing.assert_array_equal(play(np.array([0.0, 0.5, 1.0, 0.8, 0.2]), 0.4),
                                   [0.0, 0.3, 0.8, 0.8, 0.4])
 
@@ -387,7 +387,7 @@ def test_sensor_drift():
     params = quiet("ankle", duration=10.0)
     trial, truth = simulate_with_truth("ankle", params=params, effect="sensor_drift",
                                        effect_params={"slope": 0.01, "random_walk": 0.0})
-    np.testing.assert_allclose(trial.torque - truth["external_torque"], 0.01 * truth["time"],
+    np.testing.assert_allclose(trial.torque - truth.external_torque, 0.01 * truth.time,
                                atol=1e-12)
     a = simulate("ankle", seed=1, params=params, effect="sensor_drift")
     b = simulate("ankle", seed=2, params=params, effect="sensor_drift")
@@ -400,15 +400,15 @@ def test_sensor_drift():
 def test_inertia_and_damping_errors():
     nominal = simulate_with_truth("ankle", params=quiet("ankle"))[1]
     trial, truth = simulate_with_truth("ankle", params=quiet("ankle"), effect="inertia_error")
-    np.testing.assert_allclose(truth["external_torque"] - nominal["external_torque"],
-                               0.2 * 0.015 * nominal["acceleration"], atol=1e-9)
+    np.testing.assert_allclose(truth.external_torque - nominal.external_torque,
+                               0.2 * 0.015 * nominal.acceleration, atol=1e-9)
     assert trial.metadata["param.inertia"] == "0.015"
     assert trial.metadata["nominal_inertia"] == "0.015"
     assert float(trial.metadata["true_inertia"]) == pytest.approx(0.018)
     trial, truth = simulate_with_truth("ankle", params=quiet("ankle"), effect="damping_error",
                                        effect_params={"fraction": -0.5})
-    np.testing.assert_allclose(truth["external_torque"] - nominal["external_torque"],
-                               -0.5 * 1.0 * nominal["velocity"], atol=1e-9)
+    np.testing.assert_allclose(truth.external_torque - nominal.external_torque,
+                               -0.5 * 1.0 * nominal.velocity, atol=1e-9)
     assert float(trial.metadata["true_damping"]) == pytest.approx(0.5)
     assert trial.metadata["nominal_damping"] == "1"
     hogan = simulate("paper-vsa-hogan", params={"duration": 1.0}, effect="damping_error")

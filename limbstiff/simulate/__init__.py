@@ -5,7 +5,8 @@
 
 ``simulate`` returns a :class:`~limbstiff.trial.Trial` whose ``stiffness_true`` is the
 stiffness σ = ∂s/∂y of the elastic element along the true motion; ``simulate_with_truth``
-also returns the exact signals (velocity, acceleration, jerk, generalized damping…).
+also returns the exact signals (:class:`TrueSignals`: velocity, acceleration, jerk,
+generalized damping…).
 Every random draw comes from ``numpy.random.default_rng(seed)``.
 """
 
@@ -18,11 +19,11 @@ import numpy as np
 
 from ..trial import Trial
 from .effects import SIMULATED_EFFECTS, SimulatedEffect, Measurement
-from .plants import NO_EFFECT, DynamicsTerm, run
+from .plants import NO_EFFECT, CoupledLimb, DynamicsTerm, TrueSignals, run
 from .scenarios import SCENARIOS, Scenario, check_common, lookup, merge_params
 
 __all__ = ["simulate", "simulate_with_truth", "SCENARIOS", "SIMULATED_EFFECTS", "Scenario", "SimulatedEffect",
-           "describe_scenarios", "effect_defaults", "trial_scales"]
+           "TrueSignals", "CoupledLimb", "describe_scenarios", "effect_defaults", "trial_scales"]
 
 
 def _fmt(x: float) -> str:
@@ -36,7 +37,7 @@ def _lookup_effect(name: str) -> SimulatedEffect:
         raise ValueError(f"unknown effect {name!r}; available: " + ", ".join(SIMULATED_EFFECTS)) from None
 
 
-def trial_scales(truth: Mapping[str, np.ndarray]) -> dict[str, float]:
+def trial_scales(truth: TrueSignals) -> dict[str, float]:
     """Typical sizes of a (nominal) simulated trial, which set the default effect sizes.
 
     Returns
@@ -47,14 +48,14 @@ def trial_scales(truth: Mapping[str, np.ndarray]) -> dict[str, float]:
         ``angle``: sd of the recorded angle (rad or m; without the ``unrecorded_angle`` of a
         moving operating point); ``stiffness``: smallest positive stiffness (N·m/rad or N/m).
     """
-    sigma = np.asarray(truth["stiffness"])
+    sigma = truth.stiffness
     positive = sigma[sigma > 0]
-    v = np.asarray(truth["velocity"])
+    v = truth.velocity
     scales = {
-        "torque": float(np.std(truth["external_torque"])),
+        "torque": float(np.std(truth.external_torque)),
         "velocity": float(np.sqrt(np.mean(v**2))),
         "quartic_velocity": float(np.mean(v**4) ** 0.25),
-        "angle": float(np.std(truth["angle"] - truth.get("unrecorded_angle", 0.0))),
+        "angle": float(np.std(truth.angle - truth.unrecorded_angle)),
         "stiffness": float(positive.min()) if positive.size else 0.0,
     }
     for key, value in scales.items():
@@ -77,7 +78,7 @@ def effect_defaults(effect: str, scenario: str, *, seed: int = 0,
 def simulate_with_truth(scenario: str, *, seed: int = 0,
                         params: Mapping[str, float] | None = None, effect: str | None = None,
                         effect_params: Mapping[str, float] | None = None
-                        ) -> tuple[Trial, dict]:
+                        ) -> tuple[Trial, TrueSignals]:
     """Simulate a scenario; return the trial and the true signals.
 
     Parameters are those of :func:`simulate`.
@@ -85,19 +86,10 @@ def simulate_with_truth(scenario: str, *, seed: int = 0,
     Returns
     -------
     trial : Trial
-    truth : dict
-        Noise-free true signals on ``trial.time``, ndarrays of shape (n,): ``time`` (s),
-        ``angle`` (rad), ``velocity`` (rad/s), ``acceleration`` (rad/s²), ``jerk`` (rad/s³),
-        ``elastic_torque`` (N·m), ``stiffness`` (N·m/rad), ``damping`` (generalized damping
-        ∂d/∂ẏ, N·m·s/rad), ``damping_torque`` (N·m), ``effect_torque`` (N·m, zeros without
-        a dynamics effect), ``external_torque`` (N·m, applied to the joint, before the
-        sign of a reaction-torque sensor, measurement effects and noise), ``control`` (the
-        stiffness-regulating input u), ``unrecorded_angle`` (rad, the part of ``angle`` the
-        angle channel does not record; zeros but for ``ankle-platform``); floats ``inertia``
-        (true, kg·m²), ``internal_step`` (s, 0 for a position drive) and ``delay`` (s, delay
-        used by a delayed effect). Translational trials use m, N, N/m, N·s/m, kg. The
-        scenarios of :mod:`.devices` add their own entries (``ankle-coupled``: the limb's
-        motion and the coupling torque; ``angle`` is then the device's angle).
+    truth : TrueSignals
+        Noise-free true signals on ``trial.time`` (``unrecorded_angle``: zeros but for
+        ``ankle-platform``; ``limb``: the limb's motion and the coupling torque of
+        ``ankle-coupled``, whose ``angle`` is the device's).
     """
     sc = lookup(scenario)
     what = f"scenario '{sc.name}'"
@@ -109,14 +101,14 @@ def simulate_with_truth(scenario: str, *, seed: int = 0,
     term = built if isinstance(built, DynamicsTerm) else NO_EFFECT
     truth = run(setup, term, p["fs"], p["duration"])
     if term.delay:
-        ep["delay"] = truth["delay"]
+        ep["delay"] = truth.delay
     measurement = built if isinstance(built, Measurement) else None
     angle, channels = _recorded(sc, p, setup, truth, measurement, rng)
     metadata = _metadata(sc, seed, p, eff, ep, setup, term, truth)
     name = sc.name if eff is None else f"{sc.name}-{eff.name}"
-    trial = Trial(name=name, time=truth["time"], angle=angle, torque=channels["torque"],
+    trial = Trial(name=name, time=truth.time, angle=angle, torque=channels["torque"],
                   elastic_torque=channels.get("elastic_torque"),
-                  stiffness_true=truth["stiffness"], kind=sc.kind, metadata=metadata)
+                  stiffness_true=truth.stiffness, kind=sc.kind, metadata=metadata)
     return trial, truth
 
 
@@ -150,7 +142,7 @@ def _effect_for(setup, p: Mapping[str, float], effect: str | None,
     return eff, ep, eff.build(ep)
 
 
-def _recorded(sc: Scenario, p: Mapping[str, float], setup, truth: dict,
+def _recorded(sc: Scenario, p: Mapping[str, float], setup, truth: TrueSignals,
               measurement: Measurement | None, rng: np.random.Generator) -> tuple:
     """What the sensors record of the true signals: angle reference, torque sign, measurement
     effect, torque noise, encoder.
@@ -161,13 +153,13 @@ def _recorded(sc: Scenario, p: Mapping[str, float], setup, truth: dict,
     channels : dict
         ``torque`` and, when the set-up records it, ``elastic_torque``, shape (n,), N·m (N).
     """
-    t = truth["time"]
-    angle = truth["angle"].copy()
+    t = truth.time
+    angle = truth.angle.copy()
     if setup.unrecorded_angle is not None:
-        angle = angle - truth["unrecorded_angle"]
-    channels = {"torque": truth["external_torque"].copy()}
+        angle = angle - truth.unrecorded_angle
+    channels = {"torque": truth.external_torque.copy()}
     if setup.record_elastic:
-        channels["elastic_torque"] = truth["elastic_torque"].copy()
+        channels["elastic_torque"] = truth.elastic_torque.copy()
     if setup.torque_sign != 1.0:
         channels = {k: setup.torque_sign * x for k, x in channels.items()}
     if measurement is not None:
@@ -237,8 +229,8 @@ def _metadata(sc, seed, p, eff, ep, setup, term, truth) -> dict[str, str]:
     else:
         meta[f"nominal_{law}_damping"] = _fmt(coefficient)
         meta[f"true_{law}_damping"] = _fmt(coefficient * term.damping_scale)
-    if truth["internal_step"]:
-        meta["internal_step_s"] = _fmt(truth["internal_step"])
+    if truth.internal_step:
+        meta["internal_step_s"] = _fmt(truth.internal_step)
     return meta
 
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from .excitation import draw_binary_steps, gaussian_width, sinusoid, smoothed_steps
 from .limbs import _linear_joint, ankle_perturbation, ankle_stiffness
-from .plants import DynamicsTerm, Joint, Setup, _torque_drive
+from .plants import CoupledLimb, DynamicsTerm, Joint, Setup, TrueSignals, _torque_drive, unrecorded_angle
 
 
 def _fmt(x: float) -> str:
@@ -81,7 +81,7 @@ def one_body_equivalent(device_inertia: float, limb_inertia: float, limb_damping
 
 def coupled_plant(coupling_stiffness: float, coupling_damping: float, device_inertia: float,
                   rest_angle: float):
-    """The plant of ``ankle-coupled``: ``plant(setup, term, t, fs) -> truth`` (see ``run``).
+    """The plant of ``ankle-coupled``: ``plant(setup, term, t, fs) -> TrueSignals`` (see ``run``).
 
     k_c (N·m/rad), b_c (N·m·s/rad), I_d (kg·m²) and y₀ (rad) as in
     :func:`build_ankle_coupled`.
@@ -91,11 +91,11 @@ def coupled_plant(coupling_stiffness: float, coupling_damping: float, device_ine
     (the coupling enters as part of the effect torque), starting at rest in static
     equilibrium. The internal step obeys h ≤ 1/(20·f_n) with f_n = √((K_max + k_c)/I_l)/2π
     ≥ f_c, the coupling resonance. An effect acts on the limb (its angle, velocity, inertia,
-    damping); ``angle``…``jerk`` of the truth are the device's, ``limb_*`` the limb's.
+    damping); ``angle``…``jerk`` of the truth are the device's, its ``limb`` the limb's.
     """
     kc, bc, inertia_d, y0 = coupling_stiffness, coupling_damping, device_inertia, rest_angle
 
-    def plant(setup: Setup, term: DynamicsTerm, t: np.ndarray, fs: float) -> dict:
+    def plant(setup: Setup, term: DynamicsTerm, t: np.ndarray, fs: float) -> TrueSignals:
         joint, drive = setup.joint, setup.trajectory
         m = joint.inertia * term.inertia_scale
         effect = term.torque
@@ -123,8 +123,9 @@ def coupled_plant(coupling_stiffness: float, coupling_damping: float, device_ine
 
 
 def _coupled_signals(setup: Setup, term: DynamicsTerm, t: np.ndarray, m: float, motion,
-                     coupling: tuple) -> dict:
-    """The truth dict of :func:`coupled_plant` from the limb's motion (``_Motion``)."""
+                     coupling: tuple) -> TrueSignals:
+    """The true signals of :func:`coupled_plant` from the limb's motion (``_Motion``): the
+    device's motion, the torque at its sensor, the limb's stiffness and damping."""
     kc, bc, inertia_d = coupling
     joint, n = setup.joint, len(t)
     yd, vd, ad, jd = setup.trajectory(t, 3)
@@ -133,20 +134,18 @@ def _coupled_signals(setup: Setup, term: DynamicsTerm, t: np.ndarray, m: float, 
     effect = (term.torque(yl, vl, motion.state, motion.delayed_velocity, np)
               if term.torque is not None else np.zeros(n))
     coupling_torque = kc * (yd - yl) + bc * (vd - vl)
-    return {
-        "time": t, "angle": yd, "velocity": vd, "acceleration": ad, "jerk": jd, "control": u,
-        "elastic_torque": np.broadcast_to(joint.elastic_torque(yl, u, np), t.shape).astype(float),
-        "stiffness": np.broadcast_to(joint.stiffness(yl, u, np), t.shape).astype(float),
-        "damping": np.broadcast_to(term.damping_scale * joint.damping_slope(vl, np),
-                                   t.shape).astype(float),
-        "damping_torque": term.damping_scale * joint.damping_torque(vl, np),
-        "effect_torque": np.broadcast_to(effect, t.shape).astype(float),
-        "external_torque": inertia_d * ad + coupling_torque,
-        "inertia": m, "internal_step": motion.internal_step, "delay": motion.delay,
-        "limb_angle": yl, "limb_velocity": vl, "limb_acceleration": motion.acceleration,
-        "limb_jerk": motion.jerk, "coupling_torque": coupling_torque,
-        "device_inertia": inertia_d,
-    }
+    return TrueSignals(
+        time=t, angle=yd, velocity=vd, acceleration=ad, jerk=jd, control=u,
+        elastic_torque=np.broadcast_to(joint.elastic_torque(yl, u, np), t.shape).astype(float),
+        stiffness=np.broadcast_to(joint.stiffness(yl, u, np), t.shape).astype(float),
+        generalized_damping=np.broadcast_to(term.damping_scale * joint.damping_slope(vl, np),
+                                            t.shape).astype(float),
+        damping_torque=term.damping_scale * joint.damping_torque(vl, np),
+        effect_torque=np.broadcast_to(effect, t.shape).astype(float),
+        external_torque=inertia_d * ad + coupling_torque, unrecorded_angle=unrecorded_angle(setup, t),
+        inertia=m, internal_step=motion.internal_step, delay=motion.delay,
+        limb=CoupledLimb(angle=yl, velocity=vl, acceleration=motion.acceleration, jerk=motion.jerk,
+                         coupling_torque=coupling_torque, device_inertia=inertia_d))
 
 
 def _checked_coupling(p) -> float:

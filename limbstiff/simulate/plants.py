@@ -79,9 +79,10 @@ class Setup:
         Whether the elastic torque is recorded (direct observer variant).
     metadata : Mapping[str, str]
         Scenario-specific entries for ``Trial.metadata``.
-    plant : callable (setup, term, t, fs) -> dict, optional
+    plant : callable (setup, term, t, fs) -> TrueSignals, optional
         A dedicated plant for set-ups that are not one rigid body (a device coupled to the
-        limb through a spring, :mod:`.devices`): returns the dict of :func:`run` itself.
+        limb through a spring, :mod:`.devices`): returns the :class:`TrueSignals` of :func:`run`
+        itself.
     unrecorded_angle : callable (t) -> rad, ndarray shape (n,), optional
         The part of the true angle that the angle channel does not record (the operating
         point of a platform that records only the perturbation about it).
@@ -161,10 +162,21 @@ def internal_step(fs: float, inertia: float, max_stiffness: float,
     return ts / substeps, substeps
 
 
+@dataclass(frozen=True)
+class GridMotion:
+    """The motion on the internal grid t_i = i·h, shape (n_steps + 1,) each: angle y (rad),
+    velocity ẏ (rad/s), acceleration ÿ (rad/s²) and the effect's internal state z."""
+
+    angle: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    state: np.ndarray
+
+
 def integrate_torque_driven(inertia: float, internal_torque: Callable, external_torque: list,
                             h: float, n_steps: int, *, initial_angle: float = 0.0,
                             initial_velocity: float = 0.0, state_rate: Callable | None = None,
-                            delay_steps: int = 0) -> dict[str, np.ndarray]:
+                            delay_steps: int = 0) -> GridMotion:
     """Fixed-step RK4 of m·ÿ + f(k, y, ẏ, z, ẏ(t − δ)) = τ_ext.
 
     Parameters
@@ -187,8 +199,8 @@ def integrate_torque_driven(inertia: float, internal_torque: Callable, external_
 
     Returns
     -------
-    dict with ndarrays of shape (n_steps + 1,): ``angle``, ``velocity``, ``acceleration``,
-    ``state`` on the grid t_i = i·h.
+    GridMotion
+        On the grid t_i = i·h.
     """
     if inertia <= 0:
         raise ValueError("a torque drive needs a positive inertia")
@@ -198,7 +210,7 @@ def integrate_torque_driven(inertia: float, internal_torque: Callable, external_
     out = ([0.0] * n1, [0.0] * n1, [0.0] * n1, [0.0] * n1)
     _rk4_steps(out, 1.0 / inertia, internal_torque, external_torque, state_rate, h,
                float(initial_angle), float(initial_velocity), 2 * int(delay_steps))
-    return dict(zip(("angle", "velocity", "acceleration", "state"), map(np.array, out)))
+    return GridMotion(*map(np.array, out))
 
 
 def _delayed_velocity(vs: list, acc: list, h8: float, j: int) -> float:
@@ -258,7 +270,96 @@ def _rk4_steps(out: tuple, inv_m: float, f: Callable, tau: list, rate: Callable 
     acc[n_steps] = (tau[k] - f(k, y, v, z, vd)) * inv_m
 
 
-def run(setup: Setup, term: DynamicsTerm, fs: float, duration: float) -> dict:
+@dataclass(frozen=True)
+class CoupledLimb:
+    """The limb of a set-up held through a compliant coupling (``ankle-coupled``), its device's
+    motion imposed.
+
+    Parameters
+    ----------
+    angle : ndarray, shape (n,), rad
+        θ_l at the sample times.
+    velocity : ndarray, shape (n,), rad/s
+    acceleration : ndarray, shape (n,), rad/s²
+    jerk : ndarray, shape (n,), rad/s³
+    coupling_torque : ndarray, shape (n,), N·m
+        k_c·(θ_d − θ_l) + b_c·(θ̇_d − θ̇_l): what the coupling passes from the device to the limb.
+    device_inertia : float, kg·m²
+        I_d, of what lies between the coupling and the torque sensor.
+    """
+
+    angle: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+    coupling_torque: np.ndarray
+    device_inertia: float
+
+
+@dataclass(frozen=True)
+class TrueSignals:
+    """The noise-free signals of a simulated trial at its sample times (what :func:`run` returns).
+
+    Units are a rotational joint's; a translational one has m for rad, N for N·m, kg for kg·m².
+
+    Parameters
+    ----------
+    time : ndarray, shape (n,), s
+        t = 0, 1/fs, …, duration.
+    angle : ndarray, shape (n,), rad
+        y, the joint's true angle (``ankle-coupled``: the device's; the limb's is in ``limb``).
+    velocity : ndarray, shape (n,), rad/s
+    acceleration : ndarray, shape (n,), rad/s²
+    jerk : ndarray, shape (n,), rad/s³
+    control : ndarray, shape (n,)
+        u(t), the stiffness-regulating input (activation, rest length, stiffness…; the unit of
+        the scenario's law).
+    elastic_torque : ndarray, shape (n,), N·m
+        s(y, u).
+    stiffness : ndarray, shape (n,), N·m/rad
+        σ = ∂s/∂y.
+    generalized_damping : ndarray, shape (n,), N·m·s/rad
+        ∂d/∂ẏ.
+    damping_torque : ndarray, shape (n,), N·m
+        d(ẏ).
+    effect_torque : ndarray, shape (n,), N·m
+        e, the unmodelled effect's torque (zeros without a dynamics effect).
+    external_torque : ndarray, shape (n,), N·m
+        τ_ext applied to the joint, before the sign of a reaction-torque sensor, measurement
+        effects and noise.
+    unrecorded_angle : ndarray, shape (n,), rad
+        The part of ``angle`` the angle channel does not record (zeros unless the set-up records
+        the angle about a moving operating point).
+    inertia : float, kg·m²
+        The true m.
+    internal_step : float, s
+        The RK4 step (0 for a position drive).
+    delay : float, s
+        The delay of a delayed effect as used (rounded to whole internal steps; 0 without one).
+    limb : CoupledLimb or None
+        The limb behind a compliant coupling (None for a set-up of one body).
+    """
+
+    time: np.ndarray
+    angle: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+    control: np.ndarray
+    elastic_torque: np.ndarray
+    stiffness: np.ndarray
+    generalized_damping: np.ndarray
+    damping_torque: np.ndarray
+    effect_torque: np.ndarray
+    external_torque: np.ndarray
+    unrecorded_angle: np.ndarray
+    inertia: float
+    internal_step: float
+    delay: float
+    limb: CoupledLimb | None = None
+
+
+def run(setup: Setup, term: DynamicsTerm, fs: float, duration: float) -> TrueSignals:
     """Simulate a setup with an effect term; true signals at the sample times.
 
     Parameters
@@ -273,29 +374,27 @@ def run(setup: Setup, term: DynamicsTerm, fs: float, duration: float) -> dict:
 
     Returns
     -------
-    dict
-        ndarrays of shape (n,): ``time``, ``angle``, ``velocity``, ``acceleration``,
-        ``jerk``, ``control``, ``elastic_torque``, ``stiffness``, ``damping`` (generalized,
-        ∂d/∂ẏ), ``damping_torque``, ``effect_torque``, ``external_torque``,
-        ``unrecorded_angle`` (zeros unless the set-up records the angle about a moving
-        operating point); floats ``inertia`` (true), ``internal_step`` (s; 0 for a position
-        drive) and ``delay`` (s, the delay actually used). A dedicated ``setup.plant`` may
-        add entries of its own.
+    TrueSignals
+        A dedicated ``setup.plant`` returns its own (with ``limb`` for a coupled limb).
     """
     n = int(round(duration * fs)) + 1
     t = np.arange(n) / fs
     if setup.plant is not None:
-        truth = setup.plant(setup, term, t, fs)
+        return setup.plant(setup, term, t, fs)
+    m = setup.joint.inertia * term.inertia_scale
+    if setup.trajectory is not None:
+        motion = _position_drive(setup, term, t)
     else:
-        m = setup.joint.inertia * term.inertia_scale
-        if setup.trajectory is not None:
-            motion = _position_drive(setup, term, t)
-        else:
-            motion = _torque_drive(setup, term, t, fs, m)
-        truth = _true_signals(setup, term, t, m, motion)
-    truth["unrecorded_angle"] = (np.asarray(setup.unrecorded_angle(t), dtype=float)
-                                 if setup.unrecorded_angle is not None else np.zeros(n))
-    return truth
+        motion = _torque_drive(setup, term, t, fs, m)
+    return _true_signals(setup, term, t, m, motion)
+
+
+def unrecorded_angle(setup: Setup, t: np.ndarray) -> np.ndarray:
+    """The part of the true angle the set-up's angle channel does not record at the times ``t``
+    (s, shape (n,)): rad, shape (n,); zeros for most set-ups."""
+    if setup.unrecorded_angle is None:
+        return np.zeros(len(t))
+    return np.asarray(setup.unrecorded_angle(t), dtype=float)
 
 
 @dataclass(frozen=True)
@@ -349,18 +448,18 @@ def _torque_drive(setup: Setup, term: DynamicsTerm, t: np.ndarray, fs: float,
         m, _internal_torque(setup.joint, term, u), tau, h, n_steps,
         initial_angle=setup.initial_angle, initial_velocity=setup.initial_velocity,
         state_rate=term.state_rate, delay_steps=steps)
-    y, v, a, z = (fine[key][::sub] for key in ("angle", "velocity", "acceleration", "state"))
-    jerk = np.gradient(fine["acceleration"], h)[::sub]
+    y, v, a, z = fine.angle[::sub], fine.velocity[::sub], fine.acceleration[::sub], fine.state[::sub]
+    jerk = np.gradient(fine.acceleration, h)[::sub]
     vd = np.zeros(n)
     if steps:
         idx = np.arange(n) * sub - steps
-        vd[idx >= 0] = fine["velocity"][idx[idx >= 0]]
+        vd[idx >= 0] = fine.velocity[idx[idx >= 0]]
     return _Motion(y, v, a, jerk, z, vd, h, delay)
 
 
 def _true_signals(setup: Setup, term: DynamicsTerm, t: np.ndarray, m: float,
-                  motion: _Motion) -> dict:
-    """The torques, stiffness and damping along the motion: the dict :func:`run` returns."""
+                  motion: _Motion) -> TrueSignals:
+    """The torques, stiffness and damping along the motion (``m``: the true inertia, kg·m²)."""
     joint, b_scale = setup.joint, term.damping_scale
     y, v = motion.angle, motion.velocity
     u = np.broadcast_to(np.asarray(setup.control(t), dtype=float), t.shape).copy()
@@ -372,17 +471,15 @@ def _true_signals(setup: Setup, term: DynamicsTerm, t: np.ndarray, m: float,
         external = m * motion.acceleration + damping_torque + elastic + effect
     else:
         external = np.asarray(setup.external_torque(t), dtype=float)
-    return {
-        "time": t, "angle": y, "velocity": v, "acceleration": motion.acceleration,
-        "jerk": motion.jerk, "control": u,
-        "elastic_torque": np.broadcast_to(elastic, t.shape).astype(float),
-        "stiffness": np.broadcast_to(joint.stiffness(y, u, np), t.shape).astype(float),
-        "damping": np.broadcast_to(b_scale * joint.damping_slope(v, np), t.shape).astype(float),
-        "damping_torque": np.broadcast_to(damping_torque, t.shape).astype(float),
-        "effect_torque": np.broadcast_to(effect, t.shape).astype(float),
-        "external_torque": external, "inertia": m, "internal_step": motion.internal_step,
-        "delay": motion.delay,
-    }
+    return TrueSignals(
+        time=t, angle=y, velocity=v, acceleration=motion.acceleration, jerk=motion.jerk, control=u,
+        elastic_torque=np.broadcast_to(elastic, t.shape).astype(float),
+        stiffness=np.broadcast_to(joint.stiffness(y, u, np), t.shape).astype(float),
+        generalized_damping=np.broadcast_to(b_scale * joint.damping_slope(v, np), t.shape).astype(float),
+        damping_torque=np.broadcast_to(damping_torque, t.shape).astype(float),
+        effect_torque=np.broadcast_to(effect, t.shape).astype(float),
+        external_torque=external, unrecorded_angle=unrecorded_angle(setup, t), inertia=m,
+        internal_step=motion.internal_step, delay=motion.delay)
 
 
 def _internal_torque(joint: Joint, term: DynamicsTerm, u: list) -> Callable:
