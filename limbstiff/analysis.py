@@ -365,7 +365,7 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
         trial=trial, variant=filtered.variant, estimator=protocol.estimator, stiffness=stiffness,
         stiffness_lo=lo, stiffness_hi=hi, observable=observable,
         inertia=None if ident is None else ident.inertia, damping=None if ident is None else ident.damping,
-        ci_level=protocol.ci_level, seed=seed, settings=protocol.to_dict(), filtered=filtered, derived=derived,
+        ci_level=protocol.ci_level, seed=seed, protocol=protocol, filtered=filtered, derived=derived,
         fit=estimate.fit, identification=ident, checks=checks, warnings=_warnings(trial, ident, observable, scan),
         corner_scan=scan, coupling=coupling, trial_level=figures,
         reference=trial.stiffness_true if reference is None else reference)

@@ -47,7 +47,7 @@ def settings_hash(settings: Mapping[str, Any], length: int = 12) -> str:
     Parameters
     ----------
     settings : Mapping
-        ``StiffnessResult.settings`` (JSON-ready values; anything else is hashed as its ``str``).
+        The resolved protocol's ``to_dict()`` (JSON-ready values; anything else is hashed as its ``str``).
     length : int
         Hex digits kept.
 

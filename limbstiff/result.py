@@ -1,7 +1,7 @@
 """Results of a stiffness analysis, as first-class objects.
 
 A :class:`StiffnessResult` holds the stiffness course of one trial with its band and
-observability, the inertia and damping used, and every setting that produced them. It turns
+observability, the inertia and damping used, and the protocol that produced them. It turns
 itself into the contract's outputs: :meth:`StiffnessResult.to_frame` (the rows of
 ``stiffness.csv``) and :meth:`StiffnessResult.summary` (``summary.json``).
 """
@@ -9,7 +9,7 @@ itself into the contract's outputs: :meth:`StiffnessResult.to_frame` (the rows o
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Mapping
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from .filtered import Filtered
 from .interval import Interval
 from .mechanics.identification import Identification
 from .mechanics.posterior import Posterior
+from .protocol import Protocol
 from .provenance import dependency_versions, settings_hash
 from .trial import Trial
 from .trial_level import REFERENCE_SKIP_S, TrialLevel
@@ -78,7 +79,7 @@ class StiffnessResult:
         Used by the external variant (None for the direct variant).
     ci_level : float
     seed : int
-    settings : Mapping[str, Any]
+    protocol : Protocol
         The resolved protocol (file settings with command-line overrides).
     filtered : Filtered
         The trial's filtered signals and the corner, noise levels and motion frequency chosen.
@@ -115,7 +116,7 @@ class StiffnessResult:
     damping: Interval | None
     ci_level: float
     seed: int
-    settings: Mapping[str, Any]
+    protocol: Protocol
     filtered: Filtered
     derived: DerivedSettings
     fit: EstimatorFit
@@ -137,6 +138,11 @@ class StiffnessResult:
     def verdict(self) -> str | None:
         """``ok``, ``caution`` or ``unreliable`` (:class:`~limbstiff.checks.ModelChecks`)."""
         return None if self.checks is None else self.checks.verdict
+
+    @property
+    def settings_sha256(self) -> str:
+        """SHA-256 (hex) of the resolved settings, as ``summary.json`` records them."""
+        return settings_hash(_jsonable(self.protocol.to_dict()), length=64)
 
     @property
     def observable_fraction(self) -> float:
@@ -286,8 +292,8 @@ class StiffnessResult:
             "software": software(),
             "metadata": dict(trial.metadata),
             "details": _jsonable(self.details()),
-            "settings": _jsonable(self.settings),
-            "settings_sha256": settings_hash(_jsonable(self.settings), length=64),
+            "settings": _jsonable(self.protocol.to_dict()),
+            "settings_sha256": self.settings_sha256,
         }
 
 

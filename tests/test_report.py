@@ -105,7 +105,8 @@ def test_trial_report_pages_metadata_and_data(elbow, tmp_path):
         assert unit in text
     footers = [t.get_text() for fig in figures for t in fig.texts if t.get_text().startswith("limbstiff ")]
     assert len(footers) == len(figures)
-    settings = (elbow.summary().get("settings_sha256") or settings_hash(elbow.settings))[:12]
+    settings = elbow.summary()["settings_sha256"][:12]
+    assert settings == elbow.settings_sha256[:12]
     assert all(settings in f and "numpy" in f and "seed 0" in f for f in footers)
 
 

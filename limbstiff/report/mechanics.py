@@ -62,9 +62,8 @@ def _contours(ax, x, y, xlim, ylim) -> None:
 
 
 def _prior(result, name: str) -> Prior:
-    """The prior of ``inertia`` or ``damping`` the analysis used (from its resolved settings)."""
-    spec = (result.settings or {}).get(f"{name}_prior") or {}
-    return spec if isinstance(spec, Prior) else Prior(**spec)
+    """The prior of ``inertia`` or ``damping`` the analysis used (from its protocol)."""
+    return getattr(result.protocol, f"{name}_prior")
 
 
 def _hist(ax, x, interval, marks, label, inside, prior: Prior):

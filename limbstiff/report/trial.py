@@ -18,7 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .. import __version__
-from ..provenance import dependency_versions, settings_hash
+from ..provenance import dependency_versions
 from .common import footer, lean_ticks, style, write_pdf
 from .mechanics import mechanics_page
 from .pages import reference_page, relation_page, summary_page, time_page
@@ -31,8 +31,7 @@ PAGES = (summary_page, time_page, relation_page, mechanics_page, quality_page, r
 def provenance_lines(result) -> list[str]:
     """The footer's lines: version, seed, source and settings hashes, dependency versions."""
     sha = result.trial.source_sha256
-    # the prefix of summary.json's settings_sha256 where the result gives one
-    settings = result.summary().get("settings_sha256") or settings_hash(result.settings)
+    settings = result.settings_sha256               # summary.json's, of which the footer shows a prefix
     deps = ", ".join(f"{k} {v}" for k, v in dependency_versions().items())
     return [f"limbstiff {__version__} · trial {result.trial.name} · seed {result.seed} · source sha256 "
             f"{sha[:12] if sha else '— (in memory)'} · settings {settings[:12]}",
