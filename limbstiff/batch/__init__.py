@@ -11,8 +11,9 @@
 from __future__ import annotations
 
 from .discovery import NothingToDo, discover
-from .jobs import BatchReport, analyze_files, check_reference, identify_files, run_fingerprint
+from .jobs import BatchReport, JobOptions, analyze_files, check_reference, identify_files, run_fingerprint
 from .runner import TrialOutcome
+from .table import TrialRow
 
-__all__ = ["analyze_files", "identify_files", "BatchReport", "TrialOutcome", "NothingToDo", "discover",
-           "check_reference", "run_fingerprint"]
+__all__ = ["analyze_files", "identify_files", "BatchReport", "JobOptions", "TrialOutcome", "TrialRow", "NothingToDo",
+           "discover", "check_reference", "run_fingerprint"]

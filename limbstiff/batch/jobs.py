@@ -12,18 +12,54 @@ import functools
 import hashlib
 import json
 from concurrent.futures import Executor
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 from .discovery import NothingToDo, discover, output_names, writable_folder
 from .runner import BatchJob, TrialOutcome, run_jobs, run_one
-from .table import folder_outcomes, up_to_date, write_summary_csv
+from .table import TrialRow, folder_outcomes, up_to_date, write_summary_csv
 from ..errors import LimbstiffError
 from ..protocol import Protocol
 
+if TYPE_CHECKING:
+    from ..calibrate import SpringCalibration
+
 SUMMARY_CSV = "summary.csv"
 OVERVIEW_PDF = "overview.pdf"
+
+
+@dataclass(frozen=True)
+class JobOptions:
+    """What every trial of one batch run is analysed and written with (picklable: it travels to
+    the workers).
+
+    Parameters
+    ----------
+    protocol : Protocol
+        Resolved settings (file plus overrides).
+    seed : int
+        Seed of every random draw.
+    run_sha256 : str
+        The run's fingerprint (:func:`run_fingerprint`), recorded in each trial's JSON output.
+    overwrite : bool
+        Replace outputs that exist.
+    resume : bool
+        Keep outputs that are current even with ``overwrite``.
+    pdf : bool
+        Write ``report.pdf`` per trial.
+    reference : SpringCalibration or None
+        Reference stiffness curve from ``limbstiff calibrate``.
+    """
+
+    protocol: Protocol
+    seed: int
+    _: KW_ONLY
+    run_sha256: str = ""
+    overwrite: bool = False
+    resume: bool = False
+    pdf: bool = False
+    reference: SpringCalibration | None = None
 
 
 @dataclass(frozen=True)
@@ -32,7 +68,7 @@ class BatchReport:
 
     Parameters
     ----------
-    outcomes : tuple of TrialOutcome
+    outcomes : tuple of TrialOutcome of TrialRow
         One per trial, in input order.
     out : Path
         Output folder.
@@ -40,7 +76,7 @@ class BatchReport:
         Run-level remarks (stem collisions…).
     """
 
-    outcomes: tuple
+    outcomes: tuple[TrialOutcome[TrialRow], ...]
     out: Path
     notes: tuple[str, ...] = ()
 
@@ -68,13 +104,12 @@ def run_fingerprint(protocol: Protocol, *, seed: int, reference=None) -> str:
     return hashlib.sha256(json.dumps(key, sort_keys=True, default=str).encode("utf-8")).hexdigest()
 
 
-def _clear_or_refuse(job: BatchJob, marker: str) -> None:
+def _clear_or_refuse(job: BatchJob[JobOptions], marker: str) -> None:
     """Refuse to replace complete outputs without ``--overwrite``; with it, remove ``marker``
     first, so that the folder reads as incomplete until the new outputs are all written."""
     if not (job.at(job.out) / marker).exists():
         return
-    opts = job.options
-    if not opts["overwrite"]:
+    if not job.options.overwrite:
         why = "were made from another input or other settings, or lack a file this run writes"
         raise LimbstiffError(f"{job.source}: outputs in {job.out} {why} (use --overwrite to replace them)")
     (job.at(job.out) / marker).unlink()
@@ -87,42 +122,48 @@ def read_job_trial(job: BatchJob, protocol: Protocol):
     return trial if job.cwd is None else dataclasses.replace(trial, source=str(job.source))
 
 
-def _analyse_and_write(job: BatchJob) -> dict:
+def _analyse_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     """Read, analyse and write one trial (runs in a worker process)."""
     from ..analysis import analyze
     from ..files.atomic import sha256_file
     from ..files.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON, write_result
 
     opts, out = job.options, job.at(job.out)
-    files = [STIFFNESS_CSV, SUMMARY_JSON] + ([REPORT_PDF] if opts["pdf"] else [])
-    if opts.get("resume") or not opts["overwrite"]:
+    files = [STIFFNESS_CSV, SUMMARY_JSON] + ([REPORT_PDF] if opts.pdf else [])
+    if opts.resume or not opts.overwrite:
         # current outputs are kept unless --overwrite alone asks to redo them: a re-run of the same
         # command is a no-op, and --resume --overwrite redoes only what changed
-        done = up_to_date(out, source_sha256=sha256_file(job.at(job.source)), run_sha256=opts["run_sha256"],
+        done = up_to_date(out, source_sha256=sha256_file(job.at(job.source)), run_sha256=opts.run_sha256,
                           files=files)
         if done is not None:
-            return dict(done, resumed=True)
+            return done
     _clear_or_refuse(job, SUMMARY_JSON)
-    if not opts["pdf"] and (out / REPORT_PDF).exists():
+    if not opts.pdf and (out / REPORT_PDF).exists():
         (out / REPORT_PDF).unlink()              # a report of an earlier run would not match
-    protocol: Protocol = opts["protocol"]
-    trial = read_job_trial(job, protocol)
+    trial = read_job_trial(job, opts.protocol)
     reference = None
-    if opts.get("reference") is not None:
-        calibration = opts["reference"]
+    if opts.reference is not None:
+        calibration = opts.reference
         if calibration.kind is not None and calibration.kind != trial.kind:
             raise LimbstiffError(f"{job.source}: the --reference calibration is {calibration.kind} but the trial "
                                  f"is {trial.kind}; calibrate with pairs of the trial's kind")
         reference = calibration.stiffness(trial.angle)
-    result = analyze(trial, protocol, seed=opts["seed"], reference=reference)
-    if opts["pdf"]:
+    result = analyze(trial, opts.protocol, seed=opts.seed, reference=reference)
+    if opts.pdf:
         from ..report import write_report
         write_report(result, out / REPORT_PDF)
-    return write_result(result, out, extra={"output": str(job.out), "files": files,
-                                            "run_sha256": opts["run_sha256"]})
+    return TrialRow.from_summary(write_result(result, out, extra={"output": str(job.out), "files": files,
+                                                                  "run_sha256": opts.run_sha256}))
 
 
-def _run(paths, work, options, *, out, jobs, executor, progress, marker: str) -> BatchReport:
+def _run_trial(job: BatchJob[JobOptions], *, work: Callable[[BatchJob[JobOptions]], TrialRow]
+               ) -> TrialOutcome[TrialRow]:
+    """Run ``work`` on one trial (in a worker): its outcome, ``resumed`` when it kept the outputs."""
+    outcome = run_one(job, work)
+    return outcome if outcome.row is None else dataclasses.replace(outcome, resumed=outcome.row.resumed)
+
+
+def _run(paths, work, options: JobOptions, *, out, jobs, executor, progress, marker: str) -> BatchReport:
     """Discover the trials, run ``work`` on each (one failure never stops the others), and keep
     ``summary.csv`` current after every finished trial, so an interrupted run leaves it true.
 
@@ -159,13 +200,13 @@ def _run(paths, work, options, *, out, jobs, executor, progress, marker: str) ->
         if progress:
             progress(outcome, done, total)
 
-    outcomes = run_jobs(jobs_list, functools.partial(run_one, analyse_and_write=work),
+    outcomes = run_jobs(jobs_list, functools.partial(_run_trial, work=work),
                         n_jobs=jobs, executor=executor, progress=record)
     write_summary_csv(out / SUMMARY_CSV, table(outcomes))
     return BatchReport(outcomes=tuple(outcomes + lost), out=out, notes=tuple(notes))
 
 
-def _identify_and_write(job: BatchJob) -> dict:
+def _identify_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     """Read one trial, identify m and b, write posterior.json and draws.csv (worker process)."""
     from ..analysis import identification_summary, identify_trial
     from ..files.atomic import atomic_write_text
@@ -175,21 +216,21 @@ def _identify_and_write(job: BatchJob) -> dict:
     from ..files.atomic import sha256_file
 
     opts, out = job.options, job.at(job.out)
-    if not opts["overwrite"]:
-        done = up_to_date(out, source_sha256=sha256_file(job.at(job.source)), run_sha256=opts["run_sha256"],
+    if not opts.overwrite:
+        done = up_to_date(out, source_sha256=sha256_file(job.at(job.source)), run_sha256=opts.run_sha256,
                           files=["draws.csv"], marker="posterior.json")
         if done is not None:
-            return dict(done, resumed=True)
+            return done
     _clear_or_refuse(job, "posterior.json")
-    trial = read_job_trial(job, opts["protocol"])
-    ident = identify_trial(trial, opts["protocol"], seed=opts["seed"])
+    trial = read_job_trial(job, opts.protocol)
+    ident = identify_trial(trial, opts.protocol, seed=opts.seed)
     out.mkdir(parents=True, exist_ok=True)
     if ident.posterior is not None:
         atomic_write_text(out / "draws.csv", ident.posterior.to_frame().to_csv(index=False, float_format="%.10g"))
-    summary = identification_summary(trial, ident, ci_level=opts["protocol"].ci_level, seed=opts["seed"])
-    summary = _jsonable(dict(summary, output=str(job.out), run_sha256=opts["run_sha256"]))
+    summary = identification_summary(trial, ident, ci_level=opts.protocol.ci_level, seed=opts.seed)
+    summary = _jsonable(dict(summary, output=str(job.out), run_sha256=opts.run_sha256))
     write_json(out / "posterior.json", summary)
-    return summary
+    return TrialRow.from_summary(summary)
 
 
 def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-identify",
@@ -202,8 +243,7 @@ def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     and ``progress`` as for :func:`analyze_files`.
     """
     protocol = protocol or Protocol()
-    options = {"protocol": protocol, "seed": seed, "overwrite": overwrite,
-               "run_sha256": run_fingerprint(protocol, seed=seed)}
+    options = JobOptions(protocol, seed, run_sha256=run_fingerprint(protocol, seed=seed), overwrite=overwrite)
     return _run(paths, _identify_and_write, options, out=out, jobs=jobs, executor=executor, progress=progress,
                 marker="posterior.json")
 
@@ -217,7 +257,8 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     Parameters
     ----------
     paths : sequence of str
-        Files, folders (searched for ``*.csv``, ``*.tsv``, ``*.mat``) or globs.
+        Files, folders (searched for the types of :data:`limbstiff.files.read.FOLDER_EXTENSIONS`)
+        or globs.
     protocol : Protocol, optional
         Resolved settings (file plus overrides).
     out : str or Path
@@ -254,8 +295,8 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
         When no trial file is found.
     """
     protocol = protocol or Protocol()
-    options = {"protocol": protocol, "seed": seed, "pdf": pdf, "overwrite": overwrite, "resume": resume,
-               "reference": reference, "run_sha256": run_fingerprint(protocol, seed=seed, reference=reference)}
+    options = JobOptions(protocol, seed, run_sha256=run_fingerprint(protocol, seed=seed, reference=reference),
+                         overwrite=overwrite, resume=resume, pdf=pdf, reference=reference)
     report = _run(paths, _analyse_and_write, options, out=out, jobs=jobs, executor=executor, progress=progress,
                   marker="summary.json")
     if pdf:
@@ -267,15 +308,21 @@ def _overview(report: BatchReport, protocol: Protocol, sort_by: Sequence[str]) -
     """Write ``overview.pdf``; a failure here is a note, never a lost batch."""
     from ..report import write_batch_overview
 
-    rows = [o.row if o.status == "ok" else {"trial": o.trial, "status": "failed", "error": o.error}
-            for o in report.outcomes]
     try:
-        write_batch_overview(rows, report.out / OVERVIEW_PDF, sort_by=list(sort_by) or None,
+        write_batch_overview(_overview_rows(report), report.out / OVERVIEW_PDF, sort_by=list(sort_by) or None,
                              ci_level=protocol.ci_level)
     except Exception as exc:  # noqa: BLE001 - the trials are done; say why the overview is missing
         note = f"{report.out / OVERVIEW_PDF} not written ({type(exc).__name__}: {exc})"
         return dataclasses.replace(report, notes=report.notes + (" ".join(note.split()),))
     return report
+
+
+def _overview_rows(report: BatchReport) -> list[dict]:
+    """The overview's rows (:func:`~limbstiff.report.write_batch_overview`): each done trial's
+    ``summary.json`` as written, a failed trial's reason."""
+    from ..files.outputs import SUMMARY_JSON
+    return [json.loads((report.out / o.trial / SUMMARY_JSON).read_text(encoding="utf-8")) if o.status == "ok"
+            else {"trial": o.trial, "status": "failed", "error": o.error} for o in report.outcomes]
 
 
 def check_reference(path: str | Path):

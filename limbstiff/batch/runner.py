@@ -1,7 +1,9 @@
 """Running the trials of a batch: one at a time or in parallel, one failure never stopping the others.
 
 Each trial's error becomes a ``failed`` outcome with a one-line reason (a row of
-``summary.csv``). Standard library (and the package) only.
+``summary.csv``). The runner is generic: a job carries options of any (picklable) type, and an
+outcome the row its work returned (:class:`~limbstiff.batch.table.TrialRow` for ``analyze`` and
+``identify``). Standard library (and the package) only.
 """
 
 from __future__ import annotations
@@ -9,38 +11,59 @@ from __future__ import annotations
 import dataclasses
 import os
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable, Generic, Sequence, TypeVar
 
 from ..errors import LimbstiffError
 
+#: What a trial's work returns (the outcome's row).
+RowT = TypeVar("RowT")
+#: What every job of a batch is run with.
+OptionsT = TypeVar("OptionsT")
+
 
 @dataclass(frozen=True)
-class TrialOutcome:
-    """What happened to one trial of a batch (one row of ``summary.csv``)."""
+class TrialOutcome(Generic[RowT]):
+    """What happened to one trial of a batch (one row of ``summary.csv``).
+
+    Parameters
+    ----------
+    trial : str
+        Its name (the output folder's).
+    source : str
+        Its file, as given.
+    status : {"ok", "failed"}
+    error : str
+        Why it failed, in one line ("" when ok).
+    row : RowT or None
+        What its work returned (None when it failed).
+    resumed : bool
+        Its outputs were current and kept, not made again.
+    """
 
     trial: str
     source: str
     status: str
     error: str = ""
-    row: dict = field(default_factory=dict)
+    row: RowT | None = None
     resumed: bool = False
 
 
 @dataclass(frozen=True)
-class BatchJob:
+class BatchJob(Generic[OptionsT]):
     """Everything a worker needs to analyse one trial (picklable).
 
-    ``source`` and ``out`` are as the user gave them (and are recorded so); ``cwd``, set when the
-    job runs on an executor (another process, maybe another machine), is the client's working
-    directory, which relative paths are opened from (:meth:`at`).
+    ``source`` and ``out`` are as the user gave them (and are recorded so); ``options`` what every
+    trial of the batch is run with; ``cwd``, set when the job runs on an executor (another
+    process, maybe another machine), is the client's working directory, which relative paths
+    are opened from (:meth:`at`).
     """
 
     source: Path
     name: str
     out: Path
-    options: dict
+    options: OptionsT
     cwd: str | None = None
 
     def at(self, path: Path) -> Path:
@@ -49,10 +72,10 @@ class BatchJob:
         return path if self.cwd is None or path.is_absolute() else Path(self.cwd) / path
 
 
-def run_one(job: BatchJob, analyse_and_write: Callable[[BatchJob], dict]) -> TrialOutcome:
+def run_one(job: BatchJob, analyse_and_write: Callable[[BatchJob], RowT]) -> TrialOutcome[RowT]:
     """Run one trial, turning any failure into a ``failed`` outcome with a one-line reason."""
     try:
-        summary = analyse_and_write(job)
+        row = analyse_and_write(job)
     except LimbstiffError as exc:
         return TrialOutcome(job.name, str(job.source), "failed", _one_line(str(exc)))
     except MemoryError:
@@ -60,8 +83,7 @@ def run_one(job: BatchJob, analyse_and_write: Callable[[BatchJob], dict]) -> Tri
     except Exception as exc:  # noqa: BLE001 - a batch must survive any one trial
         return TrialOutcome(job.name, str(job.source), "failed",
                             _one_line(f"{job.source}: internal error ({type(exc).__name__}: {exc})"))
-    resumed = bool(summary.pop("resumed", False))
-    return TrialOutcome(job.name, str(job.source), "ok", "", summary, resumed)
+    return TrialOutcome(job.name, str(job.source), "ok", "", row)
 
 
 def _one_line(text: str) -> str:

@@ -1,18 +1,23 @@
 """The batch's table, ``summary.csv``, and the test of whether a trial's outputs are current.
 
-Standard library only.
+A finished trial's row is a :class:`TrialRow`, read from the ``summary.json`` (or
+``posterior.json``) it wrote or kept; the table's cells are made from it only when
+``summary.csv`` is written. Standard library only.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from io import StringIO
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Any, Iterable, Sequence
 
 from ..files.atomic import atomic_write_text
 from ..files.outputs import SUMMARY_JSON
+from ..frozen import FrozenDict
 from .runner import TrialOutcome
 
 SUMMARY_COLUMNS = ("trial", "status", "verdict", "error", "source", "variant", "stiffness_median", "stiffness_lo",
@@ -24,39 +29,115 @@ SUMMARY_COLUMNS = ("trial", "status", "verdict", "error", "source", "variant", "
 METADATA_PREFIX = "meta."
 
 
-def summary_row(outcome: TrialOutcome) -> dict:
-    """The ``summary.csv`` row of one outcome."""
-    s = outcome.row
-    stiff = s.get("stiffness") or {}
+@dataclass(frozen=True)
+class RowInterval:
+    """A value with its interval as a trial's JSON output gives it; None where it gives none (a
+    blank cell). Values are kept as written, so that the table shows them digit for digit.
+
+    Parameters
+    ----------
+    median, lo, hi : float or None
+        In the quantity's SI unit.
+    """
+
+    median: float | None = None
+    lo: float | None = None
+    hi: float | None = None
+
+    @classmethod
+    def of(cls, value: Any) -> "RowInterval":
+        """The interval of a JSON ``{median, lo, hi}`` object (blank when ``value`` is none)."""
+        value = _mapping(value)
+        return cls(value.get("median"), value.get("lo"), value.get("hi"))
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrialRow:
+    """What ``summary.csv`` shows of one finished trial.
+
+    Parameters
+    ----------
+    variant : str or None
+        ``external`` or ``direct`` (None for ``identify``).
+    verdict : str or None
+        ``ok``, ``caution`` or ``unreliable`` (None when there are no checks).
+    stiffness : RowInterval
+        The trial's median stiffness, N·m/rad (N/m).
+    inertia, damping : RowInterval
+        kg·m², N·m·s/rad (kg, N·s/m); blank for the direct variant.
+    stiffness_at_mean_torque : RowInterval
+        N·m/rad (N/m).
+    stiffness_torque_slope : RowInterval
+        1/rad (1/m): how much stiffer per N·m (N) of background torque.
+    observable_fraction : float or None
+        Share of samples informed by motion.
+    output : str or None
+        The trial's output folder, as given.
+    metadata : Mapping[str, str]
+        The trial's ``# key: value`` metadata.
+    resumed : bool
+        Its outputs were current and kept (``--resume``), not made again.
+    """
+
+    variant: str | None = None
+    verdict: str | None = None
+    stiffness: RowInterval = RowInterval()
+    inertia: RowInterval = RowInterval()
+    damping: RowInterval = RowInterval()
+    stiffness_at_mean_torque: RowInterval = RowInterval()
+    stiffness_torque_slope: RowInterval = RowInterval()
+    observable_fraction: float | None = None
+    output: str | None = None
+    metadata: Mapping[str, str] = field(default_factory=FrozenDict)
+    resumed: bool = False
+
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any], *, resumed: bool = False) -> "TrialRow":
+        """The row of a trial's ``summary.json`` or ``posterior.json`` content (a key it lacks
+        is a blank cell)."""
+        level = _mapping(summary.get("trial_level"))
+        return cls(variant=summary.get("variant"), verdict=summary.get("verdict"),
+                   stiffness=RowInterval.of(summary.get("stiffness")), inertia=RowInterval.of(summary.get("inertia")),
+                   damping=RowInterval.of(summary.get("damping")),
+                   stiffness_at_mean_torque=RowInterval.of(level.get("stiffness_at_mean_torque")),
+                   stiffness_torque_slope=RowInterval.of(level.get("stiffness_torque_slope")),
+                   observable_fraction=summary.get("observable_fraction"), output=summary.get("output"),
+                   metadata=FrozenDict(_mapping(summary.get("metadata"))), resumed=resumed)
+
+
+def _mapping(value: Any) -> Mapping:
+    return value if isinstance(value, Mapping) else {}
+
+
+def summary_row(outcome: TrialOutcome[TrialRow]) -> dict:
+    """The ``summary.csv`` row of one outcome (None is a blank cell)."""
+    row = outcome.row or TrialRow()
     return {
-        "trial": outcome.trial, "status": outcome.status, "verdict": s.get("verdict") or "", "error": outcome.error,
-        "source": outcome.source, "variant": s.get("variant", ""),
-        "stiffness_median": stiff.get("median", ""), "stiffness_lo": stiff.get("lo", ""),
-        "stiffness_hi": stiff.get("hi", ""),
-        "inertia_median": (s.get("inertia") or {}).get("median", ""),
-        "damping_median": (s.get("damping") or {}).get("median", ""),
-        "observable_fraction": s.get("observable_fraction", ""),
+        "trial": outcome.trial, "status": outcome.status, "verdict": row.verdict or "", "error": outcome.error,
+        "source": outcome.source, "variant": row.variant,
+        "stiffness_median": row.stiffness.median, "stiffness_lo": row.stiffness.lo, "stiffness_hi": row.stiffness.hi,
+        "inertia_median": row.inertia.median, "damping_median": row.damping.median,
+        "observable_fraction": row.observable_fraction,
         "resumed": int(outcome.resumed) if outcome.status == "ok" else "",
-        "output": s.get("output", ""),
-        **_interval_columns(s),
-        **{METADATA_PREFIX + str(k): v for k, v in (s.get("metadata") or {}).items()},
+        "output": row.output,
+        **_interval_columns(row),
+        **{METADATA_PREFIX + str(k): v for k, v in row.metadata.items()},
     }
 
 
-def _interval_columns(s: dict) -> dict:
-    """The ``_lo``/``_hi`` columns: inertia and damping, the trial-level figures (blank when absent)."""
+def _interval_columns(row: TrialRow) -> dict:
+    """The ``_lo``/``_hi`` columns: inertia and damping, the trial-level figures."""
     out = {}
     for name in ("inertia", "damping"):
-        iv = s.get(name) or {}
-        out.update({f"{name}_lo": iv.get("lo", ""), f"{name}_hi": iv.get("hi", "")})
-    level = s.get("trial_level") or {}
+        iv = getattr(row, name)
+        out.update({f"{name}_lo": iv.lo, f"{name}_hi": iv.hi})
     for name in ("stiffness_at_mean_torque", "stiffness_torque_slope"):
-        iv = level.get(name) or {}
-        out.update({name: iv.get("median", ""), f"{name}_lo": iv.get("lo", ""), f"{name}_hi": iv.get("hi", "")})
+        iv = getattr(row, name)
+        out.update({name: iv.median, f"{name}_lo": iv.lo, f"{name}_hi": iv.hi})
     return out
 
 
-def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome]) -> None:
+def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome[TrialRow]]) -> None:
     """Write ``summary.csv``, one row per trial, atomically.
 
     The fixed columns (:data:`SUMMARY_COLUMNS`) come first, then one ``meta.<key>`` column per
@@ -73,8 +154,8 @@ def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome]) -> None:
 
 
 def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: Iterable[str],
-               marker: str = SUMMARY_JSON) -> dict | None:
-    """The existing summary of a trial whose outputs need not be made again, or None.
+               marker: str = SUMMARY_JSON) -> TrialRow | None:
+    """The row of a trial whose outputs need not be made again (``resumed``), or None.
 
     They need not when ``marker`` (``summary.json`` or ``posterior.json``, written last, so
     present only for a complete trial) records the same input SHA-256 and the same run
@@ -90,10 +171,10 @@ def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: I
         return None
     if not all((directory / f).is_file() for f in files):
         return None
-    return summary
+    return TrialRow.from_summary(summary, resumed=True)
 
 
-def folder_outcomes(out: Path, marker: str, *, exclude: set[str]) -> list[TrialOutcome]:
+def folder_outcomes(out: Path, marker: str, *, exclude: set[str]) -> list[TrialOutcome[TrialRow]]:
     """The rows of trials of earlier runs kept in ``out``: every sub-folder whose ``marker``
     (``summary.json`` or ``posterior.json``, written last) is there and readable, read back from
     it, in name order; those named in ``exclude`` (this run's) are left out. They count as up to
@@ -108,5 +189,6 @@ def folder_outcomes(out: Path, marker: str, *, exclude: set[str]) -> list[TrialO
         except (OSError, ValueError):
             continue
         if isinstance(summary, dict):
-            rows.append(TrialOutcome(name, str(summary.get("source", "")), "ok", "", summary, resumed=True))
+            rows.append(TrialOutcome(name, str(summary.get("source", "")), "ok", "",
+                                     TrialRow.from_summary(summary, resumed=True), resumed=True))
     return rows
