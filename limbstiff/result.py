@@ -261,7 +261,7 @@ class StiffnessResult:
         return median, float(np.min(stiffness)), float(np.max(stiffness))
 
     def summary(self) -> dict:
-        """The content of ``summary.json`` (INTERFACE.md section 4), JSON-ready."""
+        """The content of ``summary.json`` (docs/interface.md section 4), JSON-ready."""
         median, low, high = self.informed_stiffness()
         stiffness = dict(median.to_dict(), min=low, max=high)
         trial = self.trial

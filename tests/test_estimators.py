@@ -124,7 +124,7 @@ def test_smoothed_observer_beats_the_causal_one():
 
 
 def test_observer_sensitivity_is_exact():
-    # ARCHITECTURE fact 2 through the whole estimator: σ̂(m + Δm, b + Δb) = σ̂ + Δm·g0 + Δb·g1
+    # docs/architecture.md, fact 2 through the whole estimator: σ̂(m + Δm, b + Δb) = σ̂ + Δm·g0 + Δb·g1
     trial = simulate("elbow", seed=7, params={"duration": 6.0})
     for est in ("observer", "observer-smoothed", "kalman"):
         base = analyze(trial, Protocol(estimator=est, inertia=0.06, damping=0.45))

@@ -82,7 +82,7 @@ def test_external_variant_converges_with_known_inertia_and_damping():
 
 
 def test_estimate_is_affine_in_inertia_and_damping():
-    # ARCHITECTURE fact 2: σ̂(m, b) = S0 − m·S1 − b·S2 for fixed gain.
+    # docs/architecture.md, fact 2: σ̂(m, b) = S0 − m·S1 − b·S2 for fixed gain.
     rng = np.random.default_rng(1)
     n = 3000
     v, fdot, acc, jerk = rng.standard_normal((4, n))

@@ -86,7 +86,7 @@ class BatchReport:
 
     @property
     def exit_status(self) -> int:
-        """0 when every trial is done, 1 when some failed (INTERFACE.md section 2)."""
+        """0 when every trial is done, 1 when some failed (docs/interface.md section 2)."""
         return 1 if self.n_failed else 0
 
 
@@ -252,7 +252,7 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
                   jobs: int = 1, seed: int = 0, pdf: bool = True, overwrite: bool = False,
                   resume: bool = False, reference=None, sort_by: Sequence[str] = (), executor: Executor | None = None,
                   progress: Callable[[TrialOutcome, int, int], None] | None = None) -> BatchReport:
-    """Analyse every trial named by ``paths`` and write the outputs of INTERFACE.md section 4.
+    """Analyse every trial named by ``paths`` and write the outputs of docs/interface.md section 4.
 
     Parameters
     ----------

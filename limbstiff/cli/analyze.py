@@ -1,4 +1,4 @@
-"""``limbstiff analyze``: stiffness of each trial file, written as INTERFACE.md section 4 says."""
+"""``limbstiff analyze``: stiffness of each trial file, written as docs/interface.md section 4 says."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """``limbstiff diagnose``: where the nominal model misses the data, which unmodelled effect causes
-it, and how far the gap shrinks once that effect is added (INTERFACE.md section 5)."""
+it, and how far the gap shrinks once that effect is added (docs/interface.md section 5)."""
 
 from __future__ import annotations
 

@@ -29,7 +29,7 @@ scheduler_option = click.option(
 
 
 def finish(report):
-    """Say how the batch went and exit with INTERFACE.md's status."""
+    """Say how the batch went and exit with docs/interface.md's status."""
     for note in report.notes:
         click.echo(f"limbstiff: note: {note}", err=True)
     n = len(report.outcomes)

@@ -169,7 +169,7 @@ class _Run:
                              nominal_stiffness=self.nominal_stiffness, mechanics=mechanics))
 
 
-#: The effect names of the interface (INTERFACE.md section 5) and why one is not tried as a term.
+#: The effect names of the interface (docs/interface.md section 5) and why one is not tried as a term.
 NOT_TRIED = {
     "gravity": "a torque that depends on the angle alone is a generalized stiffness, which the model holds (its "
                "static nonlinear spring and its walking stiffness); it cannot be told from stiffness in these data",
@@ -342,7 +342,7 @@ class DiagnoseReport:
 
     @property
     def exit_status(self) -> int:
-        """0 when every trial is done, 1 when some (or all) failed (INTERFACE.md section 2)."""
+        """0 when every trial is done, 1 when some (or all) failed (docs/interface.md section 2)."""
         return 1 if self.failed or self.diagnosis is None else 0
 
 
@@ -359,7 +359,7 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
                    executor=None, progress=None) -> DiagnoseReport:
     """Read the trials named by ``paths``, diagnose them together, write the outputs.
 
-    Writes ``OUT/diagnosis.json`` and ``OUT/diagnosis.pdf`` (INTERFACE.md section 5), atomically.
+    Writes ``OUT/diagnosis.json`` and ``OUT/diagnosis.pdf`` (docs/interface.md section 5), atomically.
     A trial that cannot be read or analysed is left out with a one-line reason (``failed``);
     the others are still diagnosed. The trials are read and analysed in ``jobs`` processes (or on
     ``executor``, e.g. a dask cluster's: each trial and its analysis return to this process, which

@@ -141,7 +141,7 @@ def observers(filtered: Filtered, *, smoothed: bool, gain: float, velocity_thres
     args = (gain, velocity_threshold, discretisation)
     fwd, a = _observer_pass(filtered, drive, *args, reverse=False)
     var_f = _spread(a, ratio, fwd, reverse=False) * correlated
-    # the affine parts (ARCHITECTURE fact 2): the same recursion fed −y⃛ and −ÿ
+    # the affine parts (docs/architecture.md, fact 2): the same recursion fed −y⃛ and −ÿ
     sens_f = np.vstack([_observer_pass(filtered, -x, *args, False)[0]
                         for x in (filtered.jerk, filtered.acceleration)]) if external else None
     if not smoothed:

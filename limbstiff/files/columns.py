@@ -2,7 +2,7 @@
 
 Pure functions, no I/O, shared by every reader: the delimited-text reader passes its header
 row (and its unit row, if any), the MAT reader its variable names. The rules are those of
-INTERFACE.md section 1: standard ``<quantity>_<unit>`` names are recognised without
+docs/interface.md section 1: standard ``<quantity>_<unit>`` names are recognised without
 configuration, anything else is mapped by the protocol's ``[columns]`` table.
 """
 

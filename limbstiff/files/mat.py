@@ -1,7 +1,7 @@
 """MATLAB ``.mat`` trial files: MAT v4, v6 and v7 (what :func:`scipy.io.loadmat` reads).
 
 One variable per quantity. Variables with the standard ``<quantity>_<unit>`` names of
-INTERFACE.md section 1 (``time_s``, ``angle_deg``, ``torque_Nm``…) are recognised without
+docs/interface.md section 1 (``time_s``, ``angle_deg``, ``torque_Nm``…) are recognised without
 configuration; the protocol's ``[columns]`` ``header`` maps any other, as a *variable path*:
 
 - ``tq`` — a top-level variable;

@@ -1,4 +1,4 @@
-"""Writing the outputs of ``limbstiff analyze`` (INTERFACE.md section 4), atomically.
+"""Writing the outputs of ``limbstiff analyze`` (docs/interface.md section 4), atomically.
 
 Each file is written to a temporary name and renamed, so a reader never sees half a file and
 an interrupted run leaves the previous complete file (or none). ``summary.json`` is written

@@ -1,6 +1,6 @@
 """Delimited text trial files: CSV, tab- and semicolon-separated, with an optional unit row.
 
-Scope: the text format of INTERFACE.md section 1 (``# key: value`` metadata lines, one header
+Scope: the text format of docs/interface.md section 1 (``# key: value`` metadata lines, one header
 row of ``<quantity>_<unit>`` names or names mapped by a protocol) and its common variants:
 
 - the delimiter (comma, tab or semicolon) is detected from the header line;

@@ -1,4 +1,4 @@
-"""Writing a trial as the standard CSV file of INTERFACE.md section 1.
+"""Writing a trial as the standard CSV file of docs/interface.md section 1.
 
 Reading is :func:`limbstiff.files.read_trial` (:mod:`limbstiff.files.text` for CSV and other
 delimited text); what :func:`write_trial` writes, it reads back to the same arrays.
