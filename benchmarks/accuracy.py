@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _results import machine, update_section  # noqa: E402
 
 from limbstiff.analysis import analyze  # noqa: E402
-from limbstiff.estimate.estimators import ESTIMATORS
+from limbstiff.protocol import ESTIMATORS
 from limbstiff.protocol import Protocol  # noqa: E402
 from limbstiff.simulate import simulate  # noqa: E402
 

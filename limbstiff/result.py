@@ -9,7 +9,6 @@ itself into the contract's outputs: :meth:`StiffnessResult.to_frame` (the rows o
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 
@@ -21,6 +20,7 @@ from .estimate.estimators import EstimatorFit
 from .statespace.noise import NoiseLevels
 from .estimate.observer import informed_samples
 from .filtered import Filtered
+from .files.outputs import jsonable
 from .interval import Interval
 from .mechanics.identification import Identification
 from .mechanics.posterior import Posterior
@@ -142,7 +142,7 @@ class StiffnessResult:
     @property
     def settings_sha256(self) -> str:
         """SHA-256 (hex) of the resolved settings, as ``summary.json`` records them."""
-        return settings_hash(_jsonable(self.protocol.to_dict()), length=64)
+        return settings_hash(jsonable(self.protocol.to_dict()), length=64)
 
     @property
     def observable_fraction(self) -> float:
@@ -279,20 +279,20 @@ class StiffnessResult:
             "inertia": None if self.inertia is None else self.inertia.to_dict(),
             "damping": None if self.damping is None else self.damping.to_dict(),
             "stiffness": stiffness,
-            "trial_level": None if self.trial_level is None else _jsonable(self.trial_level.to_dict()),
+            "trial_level": None if self.trial_level is None else jsonable(self.trial_level.to_dict()),
             "observable_fraction": self.observable_fraction,
             "verdict": self.verdict,
             "verdict_reasons": [] if self.checks is None else list(self.checks.reasons),
-            "checks": [] if self.checks is None else _jsonable([c.to_dict() for c in self.checks.checks]),
-            "mcmc": _jsonable(None if self.posterior is None else self.posterior.diagnostics.to_dict()),
+            "checks": [] if self.checks is None else jsonable([c.to_dict() for c in self.checks.checks]),
+            "mcmc": jsonable(None if self.posterior is None else self.posterior.diagnostics.to_dict()),
             "reference_error": self.reference_error(),
             "warnings": list(self.warnings),
             "units": result_units(trial.units),
             "seed": self.seed,
             "software": software(),
             "metadata": dict(trial.metadata),
-            "details": _jsonable(self.details()),
-            "settings": _jsonable(self.protocol.to_dict()),
+            "details": jsonable(self.details()),
+            "settings": jsonable(self.protocol.to_dict()),
             "settings_sha256": self.settings_sha256,
         }
 
@@ -309,15 +309,3 @@ def software() -> dict:
     import platform
     return {"name": "limbstiff", "version": __version__, "python": platform.python_version(),
             "dependencies": dependency_versions()}
-
-
-def _jsonable(value):
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value

@@ -97,10 +97,10 @@ def run_fingerprint(protocol: Protocol, *, seed: int, reference=None) -> str:
     whose ``summary.json`` records this fingerprint and its input's SHA-256 is up to date.
     """
     from .. import __version__
-    from ..result import _jsonable
+    from ..files.outputs import jsonable
 
-    key = {"settings": _jsonable(protocol.to_dict()), "seed": seed, "version": __version__,
-           "reference": None if reference is None else _jsonable(reference.to_dict())}
+    key = {"settings": jsonable(protocol.to_dict()), "seed": seed, "version": __version__,
+           "reference": None if reference is None else jsonable(reference.to_dict())}
     return hashlib.sha256(json.dumps(key, sort_keys=True, default=str).encode("utf-8")).hexdigest()
 
 
@@ -209,11 +209,9 @@ def _run(paths, work, options: JobOptions, *, out, jobs, executor, progress, mar
 def _identify_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     """Read one trial, identify m and b, write posterior.json and draws.csv (worker process)."""
     from ..analysis import identification_summary, identify_trial
-    from ..files.atomic import atomic_write_text
+    from ..files.atomic import atomic_write_text, sha256_file
     from ..files.outputs import write_json
-    from ..result import _jsonable
-
-    from ..files.atomic import sha256_file
+    from ..files.outputs import jsonable
 
     opts, out = job.options, job.at(job.out)
     if not opts.overwrite:
@@ -228,7 +226,7 @@ def _identify_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     if ident.posterior is not None:
         atomic_write_text(out / "draws.csv", ident.posterior.to_frame().to_csv(index=False, float_format="%.10g"))
     summary = identification_summary(trial, ident, ci_level=opts.protocol.ci_level, seed=opts.seed)
-    summary = _jsonable(dict(summary, output=str(job.out), run_sha256=opts.run_sha256))
+    summary = jsonable(dict(summary, output=str(job.out), run_sha256=opts.run_sha256))
     write_json(out / "posterior.json", summary)
     return TrialRow.from_summary(summary)
 

@@ -17,6 +17,7 @@ from ..protocol import Protocol
 from ..trial import Trial
 from .channels import Channels
 from .kinds import remove
+from .result import StiffnessBias, TrialBias
 
 
 def _corrected_trial(trial: Trial, ch: Channels, corr) -> Trial:
@@ -48,7 +49,7 @@ def median_stiffness(trial: Trial, result, ch: Channels, protocol: Protocol, ine
 
 
 def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_trial, *, nominal_stiffness,
-                     mechanics=None) -> dict:
+                     mechanics=None) -> StiffnessBias:
     """Median stiffness of each trial with the fitted effects removed, against the nominal one.
 
     The trial's recorded channels are corrected (the effect's torque taken off the recorded
@@ -58,9 +59,9 @@ def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_t
 
     Returns
     -------
-    dict
-        ``per_trial`` {name: {nominal, corrected, relative}} with relative = nominal/corrected − 1
-        (the bias the effect puts on the nominal estimate) and ``median_relative``.
+    StiffnessBias
+        Per trial the nominal and corrected median and relative = nominal/corrected − 1 (the
+        bias the effect puts on the nominal estimate), and the median of the relative biases.
     """
     per = {}
     mechanics = mechanics or [None] * len(trials)
@@ -78,8 +79,8 @@ def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_t
                                      "is not positive")
             new = median_stiffness(_corrected_trial(trial, ch, corr), res, ch, protocol, corr.inertia, corr.damping)
         except LimbstiffError as exc:
-            per[trial.name] = {"nominal": nom, "corrected": None, "relative": None, "error": str(exc)}
+            per[trial.name] = TrialBias(nominal=nom, corrected=None, relative=None, error=str(exc))
             continue
-        per[trial.name] = {"nominal": nom, "corrected": new, "relative": nom / new - 1.0 if new else None}
-    rel = [v["relative"] for v in per.values() if v["relative"] is not None]
-    return {"per_trial": per, "median_relative": float(np.median(rel)) if rel else None}
+        per[trial.name] = TrialBias(nominal=nom, corrected=new, relative=nom / new - 1.0 if new else None)
+    rel = [v.relative for v in per.values() if v.relative is not None]
+    return StiffnessBias(per_trial=per, median_relative=float(np.median(rel)) if rel else None)

@@ -10,43 +10,16 @@ the PDF over to :mod:`limbstiff.report.diagnosis`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, is_dataclass
-from typing import TYPE_CHECKING, Any, Mapping
-
-import numpy as np
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Mapping
 
 from .. import __version__
+from ..files.outputs import OMIT_NONE, jsonable
 
 if TYPE_CHECKING:
     from ..statespace.noise import NoiseLevels
     from .residual import TrialSeries, Where
     from .selection import Ambiguity
-
-#: Field metadata: the JSON leaves the key out when the value is None.
-OMIT_NONE = {"omit_none": True}
-
-
-def jsonable(value):
-    """Plain JSON values: a dataclass as its fields (in order, named as its keys; a field with
-    :data:`OMIT_NONE` left out when None), an object with ``to_dict`` as that, numpy scalars and
-    arrays converted, non-finite floats as None."""
-    if hasattr(value, "to_dict"):
-        return jsonable(value.to_dict())
-    if is_dataclass(value) and not isinstance(value, type):
-        return {f.name: jsonable(getattr(value, f.name)) for f in fields(value)
-                if not (f.metadata.get("omit_none") and getattr(value, f.name) is None)}
-    if isinstance(value, Mapping):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value
-
 
 #: Units of the quantities of ``diagnosis.json`` whose key does not name one (rotational joints;
 #: read N for N·m and m for rad on a translational one). Effect parameters carry their own
@@ -272,12 +245,6 @@ class StiffnessBias:
 
     per_trial: Mapping[str, TrialBias]
     median_relative: float | None
-
-    @classmethod
-    def from_change(cls, change: Mapping) -> "StiffnessBias":
-        """From :func:`limbstiff.diagnosis.bias.stiffness_change`'s mapping."""
-        return cls(per_trial={name: TrialBias(**per) for name, per in change["per_trial"].items()},
-                   median_relative=change["median_relative"])
 
 
 @dataclass(frozen=True)

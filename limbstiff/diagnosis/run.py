@@ -19,6 +19,7 @@ from ..blas_threads import one_blas_thread
 from ..analysis import analyze, range_of_motion
 from ..errors import LimbstiffError, TrialError
 from ..protocol import Protocol
+from ..result import StiffnessResult
 from ..trial import Trial
 from . import crossval, nominal, residual, selection
 from .bias import median_stiffness, stiffness_change
@@ -164,9 +165,8 @@ class _Run:
 
     def stiffness_change(self, fitted: list, mechanics=None) -> StiffnessBias:
         """:func:`stiffness_change` of the same fitted effects removed from every trial."""
-        return StiffnessBias.from_change(
-            stiffness_change(self.trials, self.results, self.channels, self.protocol, [fitted] * len(self.trials),
-                             nominal_stiffness=self.nominal_stiffness, mechanics=mechanics))
+        return stiffness_change(self.trials, self.results, self.channels, self.protocol, [fitted] * len(self.trials),
+                                nominal_stiffness=self.nominal_stiffness, mechanics=mechanics)
 
 
 #: The effect names of the interface (docs/interface.md section 5) and why one is not tried as a term.
@@ -346,12 +346,28 @@ class DiagnoseReport:
         return 1 if self.failed or self.diagnosis is None else 0
 
 
-def _read_and_analyze(job) -> dict:
+@dataclass(frozen=True)
+class AnalysisOptions:
+    """What reading and analysing one trial of a diagnosis needs: the protocol and the seed."""
+
+    protocol: Protocol
+    seed: int
+
+
+@dataclass(frozen=True)
+class AnalysedTrial:
+    """One trial read and analysed in a worker, returned to the process that diagnoses."""
+
+    trial: Trial
+    result: StiffnessResult
+
+
+def _read_and_analyze(job) -> AnalysedTrial:
     """Read and analyse one trial file (a :class:`~limbstiff.batch.runner.BatchJob` whose options
-    hold the protocol and the seed): the trial and its analysis."""
+    are :class:`AnalysisOptions`)."""
     from ..batch.jobs import read_job_trial
-    trial = read_job_trial(job, job.options["protocol"])
-    return {"trial": trial, "result": analyze(trial, job.options["protocol"], seed=job.options["seed"])}
+    trial = read_job_trial(job, job.options.protocol)
+    return AnalysedTrial(trial, analyze(trial, job.options.protocol, seed=job.options.seed))
 
 
 def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-diagnose",
@@ -385,12 +401,12 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
         raise NothingToDo("; ".join(why for _, why in missing))
     out = writable_folder(out)                  # before any trial is read
     names, _ = output_names(files)
-    work = [BatchJob(source=f, name=n, out=Path(out), options={"protocol": protocol, "seed": seed})
+    work = [BatchJob(source=f, name=n, out=Path(out), options=AnalysisOptions(protocol, seed))
             for f, n in zip(files, names)]
     outcomes = run_jobs(work, functools.partial(run_one, analyse_and_write=_read_and_analyze), n_jobs=jobs,
                         executor=executor, progress=progress)
     done = [o.row for o in outcomes if o.status == "ok"]
-    trials, results = [r["trial"] for r in done], [r["result"] for r in done]
+    trials, results = [r.trial for r in done], [r.result for r in done]
     failed = [o.error for o in outcomes if o.status != "ok"] + [why for _, why in missing]
     if not trials:
         return DiagnoseReport(None, out, tuple(failed))

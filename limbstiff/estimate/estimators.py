@@ -17,7 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..filtered import Filtered
-from ..protocol import ESTIMATORS  # noqa: F401  (the names, defined once with the protocol)
 from . import observer
 from ..statespace.noise import NoiseLevels
 from ..statespace.steps import ModelSteps, kalman_decimation

@@ -8,7 +8,9 @@ last: its presence marks a trial whose outputs are complete.
 from __future__ import annotations
 
 import json
+from dataclasses import fields, is_dataclass
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
@@ -21,6 +23,31 @@ STIFFNESS_DIGITS = 5
 STIFFNESS_CSV = "stiffness.csv"
 SUMMARY_JSON = "summary.json"
 REPORT_PDF = "report.pdf"
+
+#: Field metadata: the JSON leaves the key out when the value is None.
+OMIT_NONE = {"omit_none": True}
+
+
+def jsonable(value):
+    """Plain JSON values: a dataclass as its fields (in order, named as its keys; a field with
+    :data:`OMIT_NONE` left out when None), an object with ``to_dict`` as that, numpy scalars and
+    arrays converted, non-finite floats as None."""
+    if hasattr(value, "to_dict"):
+        return jsonable(value.to_dict())
+    if is_dataclass(value) and not isinstance(value, type):
+        return {f.name: jsonable(getattr(value, f.name)) for f in fields(value)
+                if not (f.metadata.get("omit_none") and getattr(value, f.name) is None)}
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
 
 
 def write_json(path: str | Path, data: dict) -> None:
