@@ -112,7 +112,8 @@ def test_sign_flip_test_and_holm():
 def test_parts_become_json_by_their_fields():
     # a part's fields are its JSON keys, in order; an optional key is left out when None
     from dataclasses import replace
-    from limbstiff.diagnosis.result import After, Mechanics, StiffnessBias, TrialBias, jsonable
+    from limbstiff.diagnosis.parts import After, Mechanics, StiffnessBias, TrialBias
+    from limbstiff.files.outputs import jsonable
     bias = StiffnessBias(per_trial={"t": TrialBias(60.0, None, None, error="why")}, median_relative=None)
     after = After(effects=(), gap_train=0.1, gap_heldout=float("nan"), shrink_heldout=None,
                   shrink_heldout_interval=(0.0, 0.0), params={}, units={}, stiffness_walk=(1.0,), mechanics=None,

@@ -17,7 +17,7 @@ from ..protocol import Protocol
 from ..trial import Trial
 from .channels import Channels
 from .kinds import remove
-from .result import StiffnessBias, TrialBias
+from .parts import StiffnessBias, TrialBias
 
 
 def _corrected_trial(trial: Trial, ch: Channels, corr) -> Trial:

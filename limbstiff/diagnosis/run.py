@@ -26,8 +26,9 @@ from .bias import median_stiffness, stiffness_change
 from .channels import channels_from
 from .candidates import CANDIDATES
 from .kinds import MechanicsOffset
-from .result import (After, Candidate, Diagnosis, Evidence, HeldOut, Mechanics, NotTried, Settings, StepScore,
-                     Step, StiffnessBias, StiffnessWalks, TrialInfo)
+from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StepScore, StiffnessBias,
+                    StiffnessWalks, TrialInfo)
+from .result import Candidate, Diagnosis
 
 #: Held-out blocks of a single trial.
 BLOCKS = 5

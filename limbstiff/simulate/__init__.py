@@ -19,7 +19,8 @@ import numpy as np
 
 from ..trial import Trial
 from .effects import SIMULATED_EFFECTS, SimulatedEffect, Measurement
-from .plants import NO_EFFECT, CoupledLimb, DynamicsTerm, TrueSignals, run
+from .plants import NO_EFFECT, DynamicsTerm, run
+from .truth import CoupledLimb, TrueSignals
 from .scenarios import SCENARIOS, Scenario, check_common, lookup, merge_params
 
 __all__ = ["simulate", "simulate_with_truth", "SCENARIOS", "SIMULATED_EFFECTS", "Scenario", "SimulatedEffect",

@@ -24,7 +24,8 @@ import numpy as np
 
 from .excitation import draw_binary_steps, gaussian_width, sinusoid, smoothed_steps
 from .limbs import _linear_joint, ankle_perturbation, ankle_stiffness
-from .plants import CoupledLimb, DynamicsTerm, Joint, Setup, TrueSignals, _torque_drive, unrecorded_angle
+from .plants import DynamicsTerm, Joint, Setup, _torque_drive, unrecorded_angle
+from .truth import CoupledLimb, TrueSignals
 
 
 def _fmt(x: float) -> str:
