@@ -14,12 +14,13 @@ import dataclasses
 import numpy as np
 from scipy import stats
 
-from . import bandwidth
+from . import bandwidth, plausibility
 from .blas_threads import one_blas_thread
 from .coupling import MAX_CORRECTION, CouplingFit, detect_coupling
 from .checks import check_analysis
 from .checks.analysis import sign_hint
 from .checks.model import angle_terms_on
+from .checks.verdict import UNRELIABLE, Check, ModelChecks
 from .errors import TrialError
 from .estimate import estimators, observer
 from .estimate.angle_terms import AngleTerms
@@ -77,6 +78,42 @@ def filter_for_model(trial: Trial, protocol: Protocol) -> tuple[Filtered, bandwi
     return (filtered if filtered is not None else filter_trial(trial, protocol, corner_hz=scan.chosen_hz)), scan
 
 
+def plausible(trial: Trial, protocol: Protocol) -> tuple[plausibility.Finding, ...]:
+    """The units and ranges of a trial checked against its limb, before any fit.
+
+    Returns
+    -------
+    tuple of Finding
+        The implausible values (each gives the verdict ``unreliable``).
+
+    Raises
+    ------
+    TrialError
+        For an impossible one (a sample rate, angle or torque no limb has), naming the likely
+        unit and the protocol line that fixes it.
+    """
+    torque = trial.torque if trial.torque is not None else trial.elastic_torque
+    found = plausibility.check_recording(trial.time, trial.angle, torque, rotational=trial.kind == "rotational",
+                                         limb=plausibility.limb_named(protocol.limb))
+    if found and found[0].fatal:
+        raise TrialError(_where(trial), found[0].message)
+    return found
+
+
+def _implausible_inertia(trial: Trial, protocol: Protocol, ident: Identification | None,
+                         found: tuple[plausibility.Finding, ...]) -> tuple[plausibility.Finding, ...]:
+    """The findings before the fit, plus an identified inertia far outside the limb's range.
+
+    The inertia gives the verdict ``unreliable``, not an error: it is identified with an
+    uncertainty and an unusual attachment can be real, so the clinician still sees the numbers,
+    marked as not to be used, with the unit to check named in the reason.
+    """
+    if ident is None or ident.posterior is None or trial.kind != "rotational":
+        return found
+    inertia = plausibility.check_inertia(ident.inertia.median, limb=plausibility.limb_named(protocol.limb))
+    return found if inertia is None else (*found, inertia)
+
+
 @one_blas_thread
 def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int = 0) -> Identification:
     """Identify inertia and damping of one trial only (``limbstiff identify``).
@@ -92,11 +129,14 @@ def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int 
         For a direct-variant trial (no external torque), or when m or b is not identifiable.
     """
     protocol = protocol or Protocol()
+    found = plausible(trial, protocol)
     filtered, _ = filter_for_model(trial, protocol)
     if filtered.variant != "external":
         raise TrialError(_where(trial), "inertia and damping are identified from the external "
                                         "torque; this trial has only the elastic torque (direct variant)")
-    return identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=_where(trial))
+    ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=_where(trial))
+    found = _implausible_inertia(trial, protocol, ident, found)
+    return dataclasses.replace(ident, warnings=ident.warnings + tuple(f.message for f in found)) if found else ident
 
 
 def identification_summary(trial: Trial, ident: Identification, *, ci_level: float, seed: int) -> dict:
@@ -331,6 +371,7 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping,
                                                  observer_gain=observer_gain, estimator=estimator)
     where = _where(trial)
+    found = plausible(trial, protocol)
     filtered, scan = filter_for_model(trial, protocol)
     coupling = _coupling(trial, filtered)
     if scan is not None and coupling is not None and coupling.found:
@@ -361,6 +402,9 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     checks = check_analysis(filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=_check_noise(filtered, estimate, ident), coupling=coupling,
                             corrected=corrected, angle_terms=angle)
+    found = _implausible_inertia(trial, protocol, ident, found)
+    checks = ModelChecks(checks.checks + tuple(Check(f"units_{f.name}", None, None, False, f.message, UNRELIABLE)
+                                               for f in found))
     return StiffnessResult(
         trial=trial, variant=filtered.variant, estimator=protocol.estimator, stiffness=stiffness,
         stiffness_lo=lo, stiffness_hi=hi, observable=observable,

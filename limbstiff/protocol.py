@@ -17,6 +17,7 @@ from .frozen import FrozenDict
 from typing import Any, Mapping
 
 from .errors import ProtocolError
+from .plausibility import LIMBS
 from .units import UNITS
 
 QUANTITIES = ("time", "angle", "torque", "elastic_torque", "stiffness_true")
@@ -140,6 +141,10 @@ class Protocol:
         identified inertia outside it is reported as a warning.
     ci_level : float
         Level of the central credible interval reported as ``lo``/``hi``.
+    limb : str or None
+        The joint or set-up recorded (a key of :data:`limbstiff.plausibility.LIMBS`: ``ankle``,
+        ``elbow``, ``vsa``…): its inertia, range of motion and torques bound the units check;
+        None assumes any joint (:data:`limbstiff.plausibility.ANY_JOINT`).
     """
 
     name: str = "default"
@@ -167,6 +172,7 @@ class Protocol:
     damping_prior: Prior = field(default_factory=Prior)
     inertia_range: tuple | None = None
     ci_level: float = 0.9
+    limb: str | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "columns", FrozenDict(self.columns))
@@ -191,6 +197,8 @@ class Protocol:
                 # a component only where one is set: the settings (and their hash) of other files unchanged
                 value = {q: {g.name: getattr(c, g.name) for g in fields(c)
                              if g.name != "component" or c.component is not None} for q, c in value.items()}
+            if f.name == "limb" and value is None:
+                continue        # the settings (and their hash) of protocols without a limb unchanged
             out[f.name] = value
         return out
 
@@ -210,7 +218,7 @@ _SECTIONS = {
 }
 # Settings for which "auto" (None) means: derive from each trial's data.
 _AUTO = {"observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping", "sample_rate_hz", "max_gap_s"}
-_TOP = {"name", "description", "columns", "priors", *_SECTIONS}
+_TOP = {"name", "description", "limb", "columns", "priors", *_SECTIONS}
 
 
 def load_protocol(path: str | Path) -> Protocol:
@@ -248,7 +256,7 @@ def protocol_from_dict(raw: Mapping[str, Any], *, source: str = "<protocol>") ->
     if unknown:
         raise ProtocolError(source, f"unknown key(s) {', '.join(sorted(unknown))}")
     kwargs: dict[str, Any] = {"source": source}
-    for key in ("name", "description"):
+    for key in ("name", "description", "limb"):
         if key in raw:
             kwargs[key] = _typed(source, key, raw[key], str)
     for section, keys in _SECTIONS.items():
@@ -323,6 +331,8 @@ def _check(p: Protocol) -> None:
                  "max_gap_s"):
         _positive(p, name)
     _check_format(p, where)
+    if p.limb is not None and p.limb not in LIMBS:
+        raise ProtocolError(where, f"'limb' must be one of {', '.join(LIMBS)}, not {p.limb!r}")
     for name in ("prefilter_time_constant", "dirty_derivative_time_constant"):
         _positive(p, name, allow_none=False)
     if p.inertia_range is not None:

@@ -17,6 +17,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from ..errors import TrialError
+from ..plausibility import check_time
 from ..trial import MIN_DURATION, MIN_SAMPLES, Trial
 
 #: A time step larger than this many median steps is a gap (an error, never interpolated).
@@ -105,6 +106,8 @@ def _check_time(where: str, time: np.ndarray, locate: Callable[[int], str]) -> N
     if time.size < MIN_SAMPLES:
         raise TrialError(where, f"trial too short: {time.size} samples (at least {MIN_SAMPLES} needed)")
     if time[-1] - time[0] < MIN_DURATION:
+        for finding in check_time(time):       # a unit slip says so (s read as ms) rather than "too short"
+            raise TrialError(where, finding.message)
         raise TrialError(where, f"trial too short: {time[-1] - time[0]:.3g} s (at least {MIN_DURATION:g} s needed)")
 
 
