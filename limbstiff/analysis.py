@@ -104,13 +104,17 @@ def _implausible_inertia(trial: Trial, protocol: Protocol, ident: Identification
                          found: tuple[plausibility.Finding, ...]) -> tuple[plausibility.Finding, ...]:
     """The findings before the fit, plus an identified inertia far outside the limb's range.
 
-    The inertia gives the verdict ``unreliable``, not an error: it is identified with an
+    Its bounds: the protocol's ``limb``, else its ``expected_inertia`` or lognormal prior, else
+    any joint's (:func:`limbstiff.plausibility.limb_of`). The inertia gives the verdict ``unreliable``, not an error: it is identified with an
     uncertainty and an unusual attachment can be real, so the clinician still sees the numbers,
     marked as not to be used, with the unit to check named in the reason.
     """
     if ident is None or ident.posterior is None or trial.kind != "rotational":
         return found
-    inertia = plausibility.check_inertia(ident.inertia.median, limb=plausibility.limb_named(protocol.limb))
+    prior = protocol.inertia_prior
+    limb = plausibility.limb_of(protocol.limb, expected_inertia=protocol.inertia_range,
+                                prior=(prior.median, prior.sigma) if prior.distribution == "lognormal" else None)
+    inertia = plausibility.check_inertia(ident.inertia.median, limb=limb)
     return found if inertia is None else (*found, inertia)
 
 

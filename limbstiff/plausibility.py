@@ -28,7 +28,7 @@ N·m, finger MCP ~5 N·m). Smallest test torque: the joint's smallest passive st
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import MappingProxyType
 from typing import Mapping
 
@@ -51,6 +51,13 @@ SMALLEST_TEST_MOTION = 0.003
 #: Largest motion of a stiffness test, rad (95 % range): perturbations are rarely more than about
 #: 1 rad (57°); beyond it the trial is most likely in degrees (±0.02 rad in degrees spans 2.3).
 LARGEST_TEST_MOTION = 1.0
+#: A protocol's ``expected_inertia`` is widened by this factor each way to bound the inertia when it
+#: names no limb: that range is already checked (a near miss gives ``caution``), and a unit slip
+#: moves the inertia by a factor of 57 or 1000.
+EXPECTED_WIDENING = 5.0
+#: A lognormal inertia prior bounds the inertia to its median·exp(±PRIOR_SIGMAS·σ) when the
+#: protocol names no limb (elbow-lab.toml: 0.018–0.20 kg·m²).
+PRIOR_SIGMAS = 3.0
 #: A finding's inertia must be this far outside the limb's range to call the units into question
 #: (the range already holds every adult and attachment; slips are factors of 57 and 1000).
 INERTIA_MARGIN = 1.0
@@ -143,6 +150,35 @@ def limb_named(name: str | None) -> Limb:
         If the name is not in :data:`LIMBS`.
     """
     return ANY_JOINT if name is None else LIMBS[name]
+
+
+def limb_of(name: str | None, *, expected_inertia: tuple[float, float] | None = None,
+            prior: tuple[float, float] | None = None) -> Limb:
+    """The bounds of a protocol: its ``limb``, else :data:`ANY_JOINT` with the inertia bounded by
+    its ``expected_inertia`` (widened by :data:`EXPECTED_WIDENING`) or its lognormal prior.
+
+    Parameters
+    ----------
+    name : str or None
+        The protocol's ``limb``.
+    expected_inertia : (float, float), optional, kg·m²
+    prior : (float, float), optional
+        Median (kg·m²) and σ of a lognormal prior on the inertia.
+
+    Returns
+    -------
+    Limb
+    """
+    if name is not None:
+        return LIMBS[name]
+    if expected_inertia is not None:
+        lo, hi = expected_inertia
+        return replace(ANY_JOINT, name="set-up", inertia=(lo / EXPECTED_WIDENING, hi * EXPECTED_WIDENING))
+    if prior is not None:
+        median, sigma = prior
+        spread = math.exp(PRIOR_SIGMAS * sigma)
+        return replace(ANY_JOINT, name="set-up", inertia=(median / spread, median * spread))
+    return ANY_JOINT
 
 
 def _range(values: np.ndarray) -> float:
@@ -290,5 +326,6 @@ def check_inertia(inertia: float, *, limb: Limb = ANY_JOINT) -> Finding | None:
 
 
 def _of(limb: Limb) -> str:
-    return "a joint" if limb is ANY_JOINT else f"the {limb.name}" if limb.name not in ("vsa", "bench") \
-        else f"a {limb.name}"
+    if limb.name == ANY_JOINT.name:
+        return "a joint"
+    return f"a {limb.name}" if limb.name in ("vsa", "bench") else f"the {limb.name}"

@@ -11,7 +11,7 @@ from limbstiff.analysis import analyze, identify_trial, plausible
 from limbstiff.cli import main
 from limbstiff.errors import ProtocolError, TrialError
 from limbstiff.files import read_trial, write_trial
-from limbstiff.plausibility import ANY_JOINT, LIMBS, check_inertia, check_recording
+from limbstiff.plausibility import ANY_JOINT, LIMBS, check_inertia, check_recording, limb_of
 from limbstiff.protocol import Protocol, load_protocol, protocol_from_dict
 from limbstiff.simulate import simulate
 
@@ -150,3 +150,14 @@ def test_the_table_is_coherent():
         assert 0 < limb.inertia[0] < limb.inertia[1] and limb.torque_min_range < limb.torque_max
         assert limb.source
     assert np.isclose(LIMBS["elbow"].inertia[0], 0.02) and limbstiff.__version__
+
+
+def test_the_inertia_is_bounded_by_the_protocols_expected_range_or_prior():
+    elbow_lab = load_protocol(PROTOCOLS / "elbow-lab.toml")
+    by_prior = limb_of(None, prior=(elbow_lab.inertia_prior.median, elbow_lab.inertia_prior.sigma))
+    assert check_inertia(0.06, limb=by_prior) is None
+    finding = check_inertia(3.4, limb=by_prior)                       # radians read as degrees: ×57
+    assert finding is not None and "far outside the set-up's" in finding.message
+    by_range = limb_of(None, expected_inertia=load_protocol(PROTOCOLS / "reklab-ankle.toml").inertia_range)
+    assert check_inertia(0.0166, limb=by_range) is None and check_inertia(1.5e-5, limb=by_range) is not None
+    assert limb_of("ankle", expected_inertia=(1.0, 2.0)) is LIMBS["ankle"] and limb_of(None) is ANY_JOINT
