@@ -130,6 +130,27 @@ def test_parts_become_json_by_their_fields():
     assert with_mechanics["mechanics"] == {"t": {"inertia": 0.01, "damping": 1.0}}
 
 
+def test_a_trials_own_selection_becomes_json_by_its_fields():
+    from limbstiff.diagnosis.parts import TrialEffect, TrialSelection
+    from limbstiff.diagnosis.per_trial import disagreements
+    from limbstiff.files.outputs import jsonable
+    reflex = TrialEffect(effect="reflex", step=1, shrink_heldout=0.7, share_of_nominal_gap=0.7,
+                         params={"delay": 0.04, "gain": 0.3}, units={"delay": "s", "gain": "N·m·s/rad"})
+    alone = (TrialSelection(trial="elbow", diagnosis=("reflex",), agrees=False, effects=(reflex,), gap_heldout=0.01,
+                            shrink_heldout=0.7),
+             TrialSelection(trial="wrist", diagnosis=(), agrees=True, effects=(), gap_heldout=0.002,
+                            shrink_heldout=0.0))
+    data = jsonable(list(alone))
+    assert list(data[0]) == ["trial", "diagnosis", "agrees", "effects", "gap_heldout", "shrink_heldout"]
+    assert list(data[0]["effects"][0]) == ["effect", "step", "shrink_heldout", "share_of_nominal_gap", "params",
+                                           "units"]
+    assert data[1]["diagnosis"] == [] and data[1]["effects"] == []
+    # the warning names the trials that differ and their effects, not those that agree, and says what to do
+    (text,) = disagreements((), alone)
+    assert "elbow alone: reflex" in text and "wrist" not in text and "separately" in text
+    assert disagreements((), alone[1:]) == ()
+
+
 # --- the library: effects as objects --------------------------------------------------------------
 
 def test_every_effect_knows_its_parameters_grid_and_removal():
@@ -269,6 +290,7 @@ def test_clean_trials_get_an_empty_diagnosis(joint, seed):
     assert d.diagnosis == ()
     assert d.after.shrink_heldout == 0.0 and d.after.stiffness_bias is None
     assert d.gap_heldout < 0.01
+    assert d.per_trial == () and d.disagreements == ()
 
 
 # --- command line ------------------------------------------------------------------------------------
@@ -295,6 +317,8 @@ def test_cli_writes_the_contract(tmp_path):
     assert {"time", "frequency", "regime", "whiteness", "cross_correlation"} <= set(data["where"]["t"])
     assert {"speed", "reversal", "angle", "torque", "stiffness"} <= set(data["where"]["t"]["regime"])
     assert (out / "diagnosis.pdf").read_bytes()[:4] == b"%PDF"
+    # one trial: its own selection is the diagnosis, so no per-trial block and nothing to disagree with
+    assert data["per_trial"] == [] and data["disagreements"] == []
 
 
 def test_cli_bad_input_is_one_line_and_exit_status(tmp_path):
@@ -338,6 +362,32 @@ def test_innovations_are_linear_in_the_channels():
     np.testing.assert_allclose(var1, var)
 
 
+def test_a_pooled_diagnosis_shows_each_trials_own_selection(tmp_path):
+    # an elbow with a reflex pooled with a clean wrist: pooled, the reflex is diluted (issue 34: a folder
+    # of an elbow with a reflex, a wrist and an ankle said "effects: none"); each trial's own selection
+    # says what it says alone, and the disagreement is a warning in the JSON and one line of the CLI
+    from limbstiff.files import read_trial
+    write_trial(simulate("elbow", seed=1, params={"duration": 12.0}, effect="reflex"), tmp_path / "a.csv")
+    write_trial(simulate("wrist", seed=2, params={"duration": 12.0}), tmp_path / "b.csv")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["diagnose", str(tmp_path), "--out", str(out), "--seed", "4"])
+    assert res.exit_code == 0, res.output
+    data = json.loads((out / "diagnosis.json").read_text())
+    assert data["diagnosis"] == []
+    alone = {s["trial"]: s for s in data["per_trial"]}
+    assert list(alone) == ["a", "b"]
+    assert alone["a"]["diagnosis"] == ["reflex"] and not alone["a"]["agrees"]
+    assert alone["b"]["diagnosis"] == [] and alone["b"]["agrees"] and alone["b"]["shrink_heldout"] == 0.0
+    (reflex,) = alone["a"]["effects"]
+    assert reflex["effect"] == "reflex" and reflex["step"] == 1 and reflex["shrink_heldout"] > 0.5
+    assert reflex["params"]["delay"] == pytest.approx(0.04, abs=0.006) and reflex["units"]["delay"] == "s"
+    assert alone["a"]["shrink_heldout"] == pytest.approx(reflex["shrink_heldout"])
+    (warning,) = data["disagreements"]
+    assert "a alone: reflex" in warning and "b alone" not in warning and "separately" in warning
+    # the trial's own selection is its diagnosis alone (same library, seed and blocks)
+    assert diagnose([read_trial(tmp_path / "a.csv")], seed=4).diagnosis == ("reflex",)
+
+
 def test_cli_diagnoses_several_trials_in_processes(tmp_path):
     # --jobs 2: both trials read and analysed in worker processes, each reported once, in input order
     # in the outputs; a missing-channel file among them is one failed line, the others still diagnosed
@@ -352,6 +402,7 @@ def test_cli_diagnoses_several_trials_in_processes(tmp_path):
     data = json.loads((out / "diagnosis.json").read_text())
     assert [t["trial"] for t in data["trials"]] == ["t0", "t1"]
     assert len(data["failed"]) == 1 and "t2.csv" in data["failed"][0]
+    assert [s["trial"] for s in data["per_trial"]] == ["t0", "t1"]
 
 
 # --- trials from the independent simulator (tests/support/independent_trials.py, not the method's forms) ---

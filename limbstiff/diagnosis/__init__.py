@@ -11,7 +11,8 @@ the gap metric), ``where`` (a residual in time, frequency and regime; whiteness 
 cross-correlation with bounds), ``kinds`` (how an effect enters the model), ``candidates`` (the
 candidate library, :data:`~limbstiff.diagnosis.candidates.CANDIDATES`), ``residual`` (where a model's prediction errors lie, per trial), ``crossval``
 (a model's innovations as a regression; fitting on training folds, scoring held out),
-``selection`` (greedy selection with a sign-flip test, intervals, ambiguities), ``bias`` (the
+``selection`` (greedy selection with a sign-flip test, intervals, ambiguities), ``per_trial``
+(each trial's own selection beside the pooled one), ``bias`` (the
 stiffness with an effect removed), ``result``
 (``Diagnosis``, ``Candidate``) and ``run`` (:func:`diagnose`, :func:`diagnose_files`).
 

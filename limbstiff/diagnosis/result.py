@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Mapping
 
 from .. import __version__
 from ..files.outputs import jsonable
-from .parts import After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StiffnessBias, TrialInfo
+from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StiffnessBias, TrialInfo,
+                    TrialSelection)
 
 if TYPE_CHECKING:
     from .residual import TrialSeries, Where
@@ -125,6 +126,12 @@ class Diagnosis:
     seed : int
     series : Mapping of str to TrialSeries
         By trial name, the innovations for the report (not written to JSON).
+    per_trial : tuple of TrialSelection
+        With several trials, each trial's own selection (made on it alone) beside the pooled
+        one; empty for one trial, whose own selection is ``diagnosis``.
+    disagreements : tuple of str
+        A warning when a trial's own selection differs from the pooled one: the trials, their
+        effects, and what to do; empty when they agree.
     """
 
     trials: tuple[TrialInfo, ...]
@@ -144,6 +151,8 @@ class Diagnosis:
     warnings: tuple[str, ...] = ()
     seed: int = 0
     series: Mapping[str, TrialSeries] = field(default_factory=dict, repr=False, compare=False)
+    per_trial: tuple[TrialSelection, ...] = ()
+    disagreements: tuple[str, ...] = ()
 
     def candidate(self, name: str) -> Candidate:
         return next(c for c in self.candidates if c.effect == name)
@@ -154,6 +163,8 @@ class Diagnosis:
             "gap": {"metric": self.metric, "train": self.gap_train, "heldout": self.gap_heldout,
                     "noise_floor": self.noise_floor},
             "diagnosis": list(self.diagnosis),
+            "per_trial": list(self.per_trial),
+            "disagreements": list(self.disagreements),
             "candidates": list(self.candidates),
             "after": self.after,
             "ambiguities": list(self.ambiguities),

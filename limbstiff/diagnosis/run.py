@@ -26,6 +26,7 @@ from .bias import median_stiffness, stiffness_change
 from .channels import channels_from
 from .candidates import CANDIDATES
 from .kinds import MechanicsOffset
+from .per_trial import chosen_fits, disagreements, trial_selections
 from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StepScore, StiffnessBias,
                     StiffnessWalks, TrialInfo)
 from .result import Candidate, Diagnosis
@@ -62,7 +63,8 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     ----------
     trials : sequence of Trial
         Trials of one set-up: the effects' amplitudes are shared, each trial is cut into
-        ``blocks`` contiguous held-out blocks.
+        ``blocks`` contiguous held-out blocks. With several, each trial's own selection is made
+        too (``Diagnosis.per_trial``, :mod:`.per_trial`) and a disagreement is a warning.
     protocol : Protocol, optional
     seed : int
         Seed of the analysis and of every random draw of the tests and intervals.
@@ -106,13 +108,16 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     notes = library_notes + [f"{orig} was fitted at the narrowest loop its grid allows and is named {name}: a "
                              f"friction whose presliding compliance shows (see selection._at_limit); not tried "
                              "again" for orig, name in run.sel.named_as.items()] + _notes(channels)
+    alone = trial_selections(trials, channels, effects, pooled=tuple(run.chosen), seed=seed, blocks=blocks,
+                             cache=problem.cache)
     return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC,
                      gap_train=float(run.sel.nominal.rss_train) / run.den, gap_heldout=run.nominal_heldout / run.den,
                      noise_floor=floor, heldout=_heldout(problem), where={n: s.where for n, s in series.items()},
                      candidates=tuple(candidates),
                      diagnosis=tuple(run.chosen), steps=tuple(_steps(run)), ambiguities=tuple(run.sel.ambiguities),
                      after=after, settings=_settings(protocol.ci_level), notes=tuple(notes),
-                     warnings=tuple(w for r in results for w in r.warnings), seed=seed, series=series)
+                     warnings=tuple(w for r in results for w in r.warnings), seed=seed, series=series,
+                     per_trial=alone, disagreements=disagreements(tuple(run.chosen), alone))
 
 
 @dataclass(frozen=True)
@@ -235,21 +240,10 @@ def _evidence(run: _Run, name: str, scored, eff) -> Evidence:
         shrink_after_chosen=later[-1].shrink if later and name not in chosen else None, grid=eff.grid_reason)
 
 
-def _chosen_fits(sel: selection.Selection) -> list:
-    """The chosen effects as (ModelEffect, shape, amplitudes) of the model with all of them: the final
-    model's amplitude vector holds each effect's amplitudes in the order chosen."""
-    fitted, k = [], 0
-    for eff, shape in sel.chosen:
-        coef = sel.final.base_coef[k:k + len(eff.amplitudes)]
-        k += len(eff.amplitudes)
-        fitted.append((eff, shape, coef))
-    return fitted
-
-
 def _after(run: _Run, rng: np.random.Generator) -> After:
     """The model with every chosen effect: its gap, shrinkage, parameters and stiffness bias."""
     final, nominal_held, den = run.sel.final, run.nominal_heldout, run.den
-    fitted = _chosen_fits(run.sel)
+    fitted = chosen_fits(run.sel)
     params = {eff.name: eff.params(shape, coef, run.mech) for eff, shape, coef in fitted}
     return After(
         effects=tuple(run.chosen), gap_train=final.rss_train / den, gap_heldout=float(final.unit_rss.sum()) / den,
