@@ -319,6 +319,7 @@ def test_cli_writes_the_contract(tmp_path):
     assert (out / "diagnosis.pdf").read_bytes()[:4] == b"%PDF"
     # one trial: its own selection is the diagnosis, so no per-trial block and nothing to disagree with
     assert data["per_trial"] == [] and data["disagreements"] == []
+    assert "disagree" not in res.output
 
 
 def test_cli_bad_input_is_one_line_and_exit_status(tmp_path):
@@ -384,6 +385,8 @@ def test_a_pooled_diagnosis_shows_each_trials_own_selection(tmp_path):
     assert alone["a"]["shrink_heldout"] == pytest.approx(reflex["shrink_heldout"])
     (warning,) = data["disagreements"]
     assert "a alone: reflex" in warning and "b alone" not in warning and "separately" in warning
+    lines = [ln for ln in res.output.splitlines() if "disagree" in ln]
+    assert len(lines) == 1 and "a alone: reflex" in lines[0] and "separately" in lines[0]
     # the trial's own selection is its diagnosis alone (same library, seed and blocks)
     assert diagnose([read_trial(tmp_path / "a.csv")], seed=4).diagnosis == ("reflex",)
 

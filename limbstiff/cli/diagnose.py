@@ -43,4 +43,9 @@ def command(paths, protocol_path, out, seed, inertia, damping, jobs, scheduler):
     d = report.diagnosis
     found = ", ".join(d.diagnosis) if d.diagnosis else "none (the nominal model explains the data)"
     click.echo(f"gap {100 * d.gap_heldout:.2f} % held out; effects: {found}; outputs in {report.out}", err=True)
+    differ = [s for s in d.per_trial if not s.agrees]
+    if differ:
+        alone = "; ".join(f"{s.trial} alone: {', '.join(s.diagnosis) or 'none'}" for s in differ)
+        click.echo(f"limbstiff: warning: the trials disagree with the pooled diagnosis ({alone}); diagnose them "
+                   "separately or pool only trials of one set-up (diagnosis.json per_trial)", err=True)
     sys.exit(report.exit_status)

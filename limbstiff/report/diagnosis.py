@@ -29,11 +29,35 @@ def _footer(fig, d):
     fig.text(0.06, 0.015, f"limbstiff {__version__} · diagnose · seed {d.seed}", fontsize=7, color="0.4")
 
 
-def _lines(fig, y, items, *, size=9, indent=0.06, width=105, step=0.019):
+def _lines(fig, y, items, *, size=9, indent=0.06, width=105, step=0.019, color="k"):
     for text in items:
         for j, line in enumerate(textwrap.wrap(text, width) or [""]):
-            fig.text(indent + (0.02 if j else 0.0), y, line, fontsize=size)
+            fig.text(indent + (0.02 if j else 0.0), y, line, fontsize=size, color=color)
             y -= step
+    return y
+
+
+#: Trials whose own selection the summary page lists (all of them are in diagnosis.json).
+MAX_TRIAL_LINES = 10
+
+
+def _per_trial(fig, y, d):
+    """Each trial's own selection beside the pooled one, and the warning when they differ."""
+    if not d.per_trial:
+        return y
+    y -= 0.01
+    fig.text(0.06, y, "Each trial alone (its own selection, beside the pooled one)", fontsize=11, weight="bold")
+    y -= 0.024
+    items = [f"pooled ({len(d.per_trial)} trials): {', '.join(d.diagnosis) or 'none'}"]
+    for s in d.per_trial[:MAX_TRIAL_LINES]:
+        removed = f", {_pct(s.shrink_heldout, 0)} of it removed by them" if s.effects else ""
+        items.append(f"{s.trial} alone: {', '.join(s.diagnosis) or 'none'} (held-out gap {_pct(s.gap_heldout, 2)}"
+                     f"{removed}) — " + ("agrees" if s.agrees else "DIFFERS from the pooled"))
+    if len(d.per_trial) > MAX_TRIAL_LINES:
+        items.append(f"… and {len(d.per_trial) - MAX_TRIAL_LINES} more trials (diagnosis.json, per_trial)")
+    y = _lines(fig, y, items, size=8.5, step=0.018)
+    if d.disagreements:
+        y = _lines(fig, y - 0.004, [f"Warning: {w}" for w in d.disagreements], size=8.5, step=0.018, color="C3")
     return y
 
 
@@ -81,6 +105,7 @@ def _summary_page(fig, d):
         items = ["None: no candidate effect removes a significant and relevant share of the held-out gap; "
                  "the nominal model explains these data as far as the library can tell."]
     y = _lines(fig, y, items)
+    y = _per_trial(fig, y, d)
     if d.ambiguities:
         y -= 0.01
         fig.text(0.06, y, "Cannot be told apart", fontsize=11, weight="bold")
