@@ -161,3 +161,21 @@ def test_the_inertia_is_bounded_by_the_protocols_expected_range_or_prior():
     by_range = limb_of(None, expected_inertia=load_protocol(PROTOCOLS / "reklab-ankle.toml").inertia_range)
     assert check_inertia(0.0166, limb=by_range) is None and check_inertia(1.5e-5, limb=by_range) is not None
     assert limb_of("ankle", expected_inertia=(1.0, 2.0)) is LIMBS["ankle"] and limb_of(None) is ANY_JOINT
+
+
+@pytest.mark.parametrize("path, protocol", [
+    (REAL / "z_df3.csv", "reklab-ankle.toml"), (EXAMPLES / "elbow.csv", "elbow-lab.toml"),
+], ids=["z_df3-reklab", "elbow-elbow-lab"])
+def test_no_units_finding_in_a_whole_analysis_with_the_bundled_protocols(path, protocol):
+    proto = load_protocol(PROTOCOLS / protocol)
+    trial = read_trial(path, proto)
+    result = analyze(trial.segment(0, int(10 * trial.fs) + 1), proto)
+    assert not [c.name for c in result.checks.checks if c.name.startswith("units_")]
+
+
+@pytest.mark.parametrize("scenario", ["paper-vsa-hogan", "paper-vsa-feldman", "paper-vsa-exp"])
+def test_no_false_alarm_with_the_vsa_bench_protocol(tmp_path, scenario):
+    vsa = load_protocol(PROTOCOLS / "vsa-bench.toml")
+    path = write_trial(simulate(scenario, seed=1, params={"duration": 5.0}), tmp_path / f"{scenario}.csv")
+    assert plausible(read_trial(path, vsa), vsa) == ()
+    assert plausible(read_trial(path, vsa), vsa.override(limb="vsa")) == ()
