@@ -14,13 +14,13 @@ import dataclasses
 import numpy as np
 from scipy import stats
 
-from . import bandwidth, plausibility
+from . import bandwidth
 from .blas_threads import one_blas_thread
 from .coupling import MAX_CORRECTION, CouplingFit, detect_coupling
 from .checks import check_analysis
 from .checks.analysis import sign_hint
 from .checks.model import angle_terms_on
-from .checks.verdict import UNRELIABLE, Check, ModelChecks
+from .checks.units import implausible_inertia, plausible, units_checks
 from .errors import TrialError
 from .estimate import estimators, observer
 from .estimate.angle_terms import AngleTerms
@@ -78,46 +78,6 @@ def filter_for_model(trial: Trial, protocol: Protocol) -> tuple[Filtered, bandwi
     return (filtered if filtered is not None else filter_trial(trial, protocol, corner_hz=scan.chosen_hz)), scan
 
 
-def plausible(trial: Trial, protocol: Protocol) -> tuple[plausibility.Finding, ...]:
-    """The units and ranges of a trial checked against its limb, before any fit.
-
-    Returns
-    -------
-    tuple of Finding
-        The implausible values (each gives the verdict ``unreliable``).
-
-    Raises
-    ------
-    TrialError
-        For an impossible one (a sample rate, angle or torque no limb has), naming the likely
-        unit and the protocol line that fixes it.
-    """
-    torque = trial.torque if trial.torque is not None else trial.elastic_torque
-    found = plausibility.check_recording(trial.time, trial.angle, torque, rotational=trial.kind == "rotational",
-                                         limb=plausibility.limb_named(protocol.limb))
-    if found and found[0].fatal:
-        raise TrialError(_where(trial), found[0].message)
-    return found
-
-
-def _implausible_inertia(trial: Trial, protocol: Protocol, ident: Identification | None,
-                         found: tuple[plausibility.Finding, ...]) -> tuple[plausibility.Finding, ...]:
-    """The findings before the fit, plus an identified inertia far outside the limb's range.
-
-    Its bounds: the protocol's ``limb``, else its ``expected_inertia`` or lognormal prior, else
-    any joint's (:func:`limbstiff.plausibility.limb_of`). The inertia gives the verdict ``unreliable``, not an error: it is identified with an
-    uncertainty and an unusual attachment can be real, so the clinician still sees the numbers,
-    marked as not to be used, with the unit to check named in the reason.
-    """
-    if ident is None or ident.posterior is None or trial.kind != "rotational":
-        return found
-    prior = protocol.inertia_prior
-    limb = plausibility.limb_of(protocol.limb, expected_inertia=protocol.inertia_range,
-                                prior=(prior.median, prior.sigma) if prior.distribution == "lognormal" else None)
-    inertia = plausibility.check_inertia(ident.inertia.median, limb=limb)
-    return found if inertia is None else (*found, inertia)
-
-
 @one_blas_thread
 def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int = 0) -> Identification:
     """Identify inertia and damping of one trial only (``limbstiff identify``).
@@ -139,7 +99,7 @@ def identify_trial(trial: Trial, protocol: Protocol | None = None, *, seed: int 
         raise TrialError(_where(trial), "inertia and damping are identified from the external "
                                         "torque; this trial has only the elastic torque (direct variant)")
     ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=_where(trial))
-    found = _implausible_inertia(trial, protocol, ident, found)
+    found = implausible_inertia(trial, protocol, ident, found)
     return dataclasses.replace(ident, warnings=ident.warnings + tuple(f.message for f in found)) if found else ident
 
 
@@ -406,9 +366,8 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     checks = check_analysis(filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=_check_noise(filtered, estimate, ident), coupling=coupling,
                             corrected=corrected, angle_terms=angle)
-    found = _implausible_inertia(trial, protocol, ident, found)
-    checks = ModelChecks(checks.checks + tuple(Check(f"units_{f.name}", None, None, False, f.message, UNRELIABLE)
-                                               for f in found))
+    found = implausible_inertia(trial, protocol, ident, found)
+    checks = units_checks(checks, found)
     return StiffnessResult(
         trial=trial, variant=filtered.variant, estimator=protocol.estimator, stiffness=stiffness,
         stiffness_lo=lo, stiffness_hi=hi, observable=observable,

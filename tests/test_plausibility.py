@@ -7,7 +7,8 @@ import pytest
 from click.testing import CliRunner
 
 import limbstiff
-from limbstiff.analysis import analyze, identify_trial, plausible
+from limbstiff.analysis import analyze, identify_trial
+from limbstiff.checks.units import plausible
 from limbstiff.cli import main
 from limbstiff.errors import ProtocolError, TrialError
 from limbstiff.files import read_trial, write_trial

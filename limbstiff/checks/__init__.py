@@ -5,6 +5,7 @@
 | ``model.py`` | what is measured on the analysis's own model: held-out torque, innovations, slopes |
 | ``verdict.py`` | ``Check``, ``ModelChecks``, the thresholds with their reasons, the verdict |
 | ``analysis.py`` | :func:`check_analysis`: every check of one analysis |
+| ``units.py`` | a trial's units and ranges against its limb: an error, or ``units_*`` checks |
 """
 
 from __future__ import annotations
