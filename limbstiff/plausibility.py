@@ -52,11 +52,12 @@ SMALLEST_TEST_MOTION = 0.003
 #: 1 rad (57°); beyond it the trial is most likely in degrees (±0.02 rad in degrees spans 2.3).
 LARGEST_TEST_MOTION = 1.0
 #: A protocol's ``expected_inertia`` is widened by this factor each way to bound the inertia when it
-#: names no limb: that range is already checked (a near miss gives ``caution``), and a unit slip
-#: moves the inertia by a factor of 57 or 1000.
-EXPECTED_WIDENING = 5.0
-#: A lognormal inertia prior bounds the inertia to its median·exp(±PRIOR_SIGMAS·σ) when the
-#: protocol names no limb (elbow-lab.toml: 0.018–0.20 kg·m²).
+#: names no limb: that range is already checked (a miss gives ``caution``: the set-up may differ),
+#: while a unit slip moves the inertia by a factor of 57 or 1000; with :data:`INERTIA_MARGIN` a
+#: miss by up to 20× stays a ``caution``.
+EXPECTED_WIDENING = 10.0
+#: A lognormal inertia prior bounds the inertia to its median·exp(±PRIOR_SIGMAS·σ), and at least
+#: ±:data:`EXPECTED_WIDENING`, when the protocol names no limb (elbow-lab.toml: 0.006–0.6 kg·m²).
 PRIOR_SIGMAS = 3.0
 #: A finding's inertia must be this far outside the limb's range to call the units into question
 #: (the range already holds every adult and attachment; slips are factors of 57 and 1000).
@@ -176,7 +177,7 @@ def limb_of(name: str | None, *, expected_inertia: tuple[float, float] | None = 
         return replace(ANY_JOINT, name="set-up", inertia=(lo / EXPECTED_WIDENING, hi * EXPECTED_WIDENING))
     if prior is not None:
         median, sigma = prior
-        spread = math.exp(PRIOR_SIGMAS * sigma)
+        spread = max(math.exp(PRIOR_SIGMAS * sigma), EXPECTED_WIDENING)
         return replace(ANY_JOINT, name="set-up", inertia=(median / spread, median * spread))
     return ANY_JOINT
 
