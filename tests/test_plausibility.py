@@ -180,3 +180,14 @@ def test_no_false_alarm_with_the_vsa_bench_protocol(tmp_path, scenario):
     path = write_trial(simulate(scenario, seed=1, params={"duration": 5.0}), tmp_path / f"{scenario}.csv")
     assert plausible(read_trial(path, vsa), vsa) == ()
     assert plausible(read_trial(path, vsa), vsa.override(limb="vsa")) == ()
+
+
+def test_no_false_alarm_on_the_independent_simulator():
+    from .support.independent_trials import make_trial, suite
+    specs = {s.name: s for s in suite(7100)}
+    for name, limb in (("clean-ramp-elbow", "elbow"), ("clean-gait-ankle", "ankle"), ("clean-vsa", "vsa")):
+        data, truth = make_trial(specs[name])
+        arrays = [data[c].to_numpy() for c in ("time_s", "angle_rad", "torque_Nm")]
+        for bounds in (ANY_JOINT, LIMBS[limb]):
+            assert check_recording(*arrays, limb=bounds) == (), name
+            assert check_inertia(truth.get("m", truth.get("inertia")), limb=bounds) is None, name
