@@ -26,7 +26,8 @@ Modules (one idea each):
 What it is built to carry next: a stiffness that is a smooth function of a cycle's phase or of a
 recorded variable, σ = Σ_j β_j·φ_j(·) + walk, adds to the torque Σ_j β_j·Σ_k φ_j·Δy — a column per
 basis function, so its weights are linear coefficients like m and b (:func:`.linear.marginal`);
-a live estimate is the forward pass (:func:`.smoother.kalman_filter`), which can be run in pieces.
+a live estimate is the forward pass (:func:`.smoother.kalman_filter`), whose moments at a step
+use the data up to it only.
 Pure numpy and scipy: no I/O. Below estimation, identification, checks, the corner scan and the
 diagnosis (docs/architecture.md, "Layering").
 """

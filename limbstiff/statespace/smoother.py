@@ -73,9 +73,10 @@ def kalman_filter(increments: np.ndarray, measured: np.ndarray, noise: NoiseLeve
                   loglik: bool = True, observed: np.ndarray | None = None) -> Smoothed:
     """The forward (causal) pass: the state's moments at step k given the data up to k.
 
-    Arguments as :func:`kalman_smoother`. A record can be filtered in pieces: the last row of
-    one piece's moments is the next piece's initial mean and covariance, its first increment
-    that from the last sample of the piece before.
+    Arguments as :func:`kalman_smoother`. The initial mean and covariance are the state's prior
+    at the first step, which is observed without a prediction; to continue a record in pieces,
+    the next piece's prior is the last filtered moments carried one step ahead (the prediction
+    of :func:`~limbstiff.statespace.kernels._predict` with the increment between the pieces).
 
     Returns
     -------
