@@ -342,14 +342,6 @@ class DiagnoseReport:
 
 
 @dataclass(frozen=True)
-class AnalysisOptions:
-    """What reading and analysing one trial of a diagnosis needs: the protocol and the seed."""
-
-    protocol: Protocol
-    seed: int
-
-
-@dataclass(frozen=True)
 class AnalysedTrial:
     """One trial read and analysed in a worker, returned to the process that diagnoses."""
 
@@ -359,7 +351,7 @@ class AnalysedTrial:
 
 def _read_and_analyze(job) -> AnalysedTrial:
     """Read and analyse one trial file (a :class:`~limbstiff.batch.runner.BatchJob` whose options
-    are :class:`AnalysisOptions`)."""
+    are a :class:`~limbstiff.batch.jobs.JobOptions`: its protocol and seed; nothing is written)."""
     from ..batch.jobs import read_job_trial
     trial = read_job_trial(job, job.options.protocol)
     return AnalysedTrial(trial, analyze(trial, job.options.protocol, seed=job.options.seed))
@@ -386,6 +378,7 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
         When ``out`` cannot be written (checked before any trial runs).
     """
     from ..batch.discovery import NothingToDo, discover, output_names, writable_folder
+    from ..batch.jobs import JobOptions
     from ..batch.runner import BatchJob, run_jobs, run_one
     from ..files.outputs import write_json
 
@@ -396,7 +389,7 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
         raise NothingToDo("; ".join(why for _, why in missing))
     out = writable_folder(out)                  # before any trial is read
     names, _ = output_names(files)
-    work = [BatchJob(source=f, name=n, out=Path(out), options=AnalysisOptions(protocol, seed))
+    work = [BatchJob(source=f, name=n, out=Path(out), options=JobOptions(protocol, seed))
             for f, n in zip(files, names)]
     outcomes = run_jobs(work, functools.partial(run_one, analyse_and_write=_read_and_analyze), n_jobs=jobs,
                         executor=executor, progress=progress)

@@ -77,7 +77,7 @@ def integrate_out(sum_log_s: float, a: np.ndarray, n: int) -> Marginal:
     form, as the sampler calls this thousands of times; more through a linear solve.
     """
     p = a.shape[0] - 1
-    log2pi = math.log(2.0 * math.pi)
+    log2pi = math.log(2.0 * math.pi)       # the closed form's, as the numba kernel it replaced computed it
     if p == 0:
         return Marginal(float(-0.5 * (n * np.log(2 * np.pi) + sum_log_s + a[0, 0])), np.zeros(0), np.zeros((0, 0)))
     if p == 2:
