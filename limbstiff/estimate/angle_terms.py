@@ -126,3 +126,89 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
                           for u, k in zip(U, slopes)])
     return AngleTerms(coefficients=beta, covariance=sandwich, wald=float(beta @ np.linalg.solve(sandwich, beta)),
                       missed=H - followed, index=steps.index)
+
+
+#: Central share of the informed steps' deflections the stiffness against angle is drawn over
+#: (as the range of motion's central 95 %: a spike or a drifting end does not stretch it).
+COURSE_RANGE = (2.5, 97.5)
+
+
+@dataclass(frozen=True)
+class AngleCourse:
+    """The stiffness against the angle that the angle terms give, on a grid of deflections.
+
+    σ(g) = σ̄₀ + β₁·g + β₂·(g² − c): σ̄₀ the median over the informed steps of the course without
+    the terms (the smoothed course less the part of them it follows), so that the curve is the
+    stiffness at each deflection g about the operating angle, the cycle's average taken out.
+
+    Parameters
+    ----------
+    deflection : ndarray, shape (k,), rad (m)
+        The grid, over the central :data:`COURSE_RANGE` of the informed steps' deflections.
+    operating : float, rad (m)
+        The angle the deflection is taken about (median over the informed steps of the angle less
+        its deflection): ``angle`` = operating + deflection.
+    stiffness, lo, hi : ndarray, shape (k,), N·m/rad (N/m)
+        σ(g) and its band: the terms' sandwich covariance (the shape) and ``level_half`` (the
+        level's own uncertainty) added in quadrature.
+    level : float
+        The band's level (0.9 for 90 %).
+    """
+
+    deflection: np.ndarray
+    operating: float
+    stiffness: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    level: float
+
+    @property
+    def angle(self) -> np.ndarray:
+        """operating + deflection, rad (m), shape (k,)."""
+        return self.operating + self.deflection
+
+
+def angle_course(terms: AngleTerms, steps: ModelSteps, course: np.ndarray, informed: np.ndarray, *,
+                 level: float = 0.9, level_half: float = 0.0, points: int = 41) -> AngleCourse:
+    """The stiffness against the angle from the fitted terms (:class:`AngleCourse`).
+
+    Parameters
+    ----------
+    terms : AngleTerms
+        Fitted on ``steps`` (:func:`fit_angle_terms`).
+    steps : ModelSteps
+        The model's steps the terms were fitted on.
+    course : ndarray, shape (m,), N·m/rad (N/m)
+        The smoothed course at the steps (without the terms).
+    informed : ndarray of bool, shape (m,)
+        The steps informed by motion (all when none is).
+    level : float
+        Level of the band.
+    level_half : float, N·m/rad (N/m)
+        Half-width of the level's own interval at ``level`` (the median stiffness's, say), added
+        in quadrature to the shape's; 0 draws the shape's uncertainty alone.
+    points : int
+        Points of the grid.
+
+    Returns
+    -------
+    AngleCourse
+    """
+    from scipy.stats import norm
+
+    g = steps.deflection
+    c = float(np.mean(g ** 2))                       # as angle_regressors: the terms' own centring
+    informed = np.asarray(informed, dtype=bool)
+    if not informed.any():
+        informed = np.ones_like(informed)
+    beta = terms.coefficients
+    # the course without the terms: the smoothed course less what it follows of them (H − missed)
+    base = course + terms.missed_course() - beta @ np.vstack([g, g ** 2 - c])
+    lo_g, hi_g = np.percentile(g[informed], COURSE_RANGE)
+    grid = np.linspace(lo_g, hi_g, points)
+    h = np.vstack([grid, grid ** 2 - c])
+    sigma = float(np.median(base[informed])) + beta @ h
+    shape_sd = np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", h, terms.covariance, h), 0.0))
+    half = np.hypot(float(norm.ppf(0.5 + level / 2)) * shape_sd, level_half)
+    return AngleCourse(deflection=grid, operating=float(np.median((steps.angle - g)[informed])),
+                       stiffness=sigma, lo=sigma - half, hi=sigma + half, level=level)
