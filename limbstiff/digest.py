@@ -19,6 +19,12 @@ VERDICT_WORDS = {
     "caution": ("CAUTION", "the model misses part of this recording: the stiffness may be biased", "#b35c00"),
     "unreliable": ("UNRELIABLE", "the model does not fit this recording: do not use the stiffness", "#c62828"),
 }
+#: How the ``angle_dependence`` check's message begins when the stiffness follows the angle within
+#: the cycle, well determined (:func:`limbstiff.checks.analysis._angle_dependence`): the verdict
+#: then says what it is instead of a misfit.
+ANGLE_PROPERTY = "the joint's stiffness depends on its angle"
+#: The verdict's words when that is its only reason.
+ANGLE_VERDICT = "the stiffness varies with the angle within each cycle (see below)"
 #: Metadata lines on page 1 at most (the rest is in summary.json).
 METADATA_LINES = 6
 
@@ -40,8 +46,16 @@ def interval_text(v: Interval | None, unit: str) -> str:
 
 
 def verdict_line(result) -> tuple[str, str, str] | None:
-    """(word, meaning, colour) of the result's verdict; None when no check was run."""
-    return None if result.checks is None else VERDICT_WORDS[result.checks.verdict]
+    """(word, meaning, colour) of the result's verdict; None when no check was run. A ``caution``
+    whose only reason is the stiffness depending on the angle (:data:`ANGLE_PROPERTY`) says so
+    (:data:`ANGLE_VERDICT`), not that the model misses part of the recording."""
+    if result.checks is None:
+        return None
+    word, meaning, colour = VERDICT_WORDS[result.checks.verdict]
+    failed = result.checks.failed
+    if failed and all(c.name == "angle_dependence" and c.message.startswith(ANGLE_PROPERTY) for c in failed):
+        meaning = ANGLE_VERDICT
+    return word, meaning, colour
 
 
 def headline_rows(result) -> list[tuple[str, str]]:
