@@ -17,7 +17,11 @@ from ..digest import headline_rows, recording_rows, verdict_line
 from ..trial_level import REFERENCE_SKIP_S
 from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, ROW_SPACING, envelope, envelope_band, fmt, grid,
                      key_value_lines, new_page, robust_limits, shade_false, text_panel)
-from .plots import names, plot_relation, plot_stiffness, recorded_torque
+from .plots import (angle_course_words, angle_figure, names, plot_angle_course, plot_relation, plot_stiffness,
+                    recorded_torque)
+
+#: The page the stiffness against angle is on (the check's message names it).
+ANGLE_PAGE = 3
 
 
 
@@ -31,13 +35,34 @@ def summary_page(result):
     height = 0.23
     ax = fig.add_axes((0.1, y - height - 0.01, 0.84, height))
     plot_stiffness(result, ax=ax)
-    y = _key_values(fig, headline_rows(result), y - height - 0.055, fontsize=FONT["body"], wrap=78)
+    y = _key_values(fig, headline_rows(result) + angle_rows(result), y - height - 0.055, fontsize=FONT["body"],
+                    wrap=78)
     recording = recording_rows(result)
     room = 0.026 + len(recording) * 1.9 * FONT["small"] / 72 / A4[1]       # the recording table's height
     y = _bullets(fig, "Warnings", list(result.warnings) or ["none"], y - 0.01, floor=FOOTER_HEIGHT + room + 0.02)
     _key_values(fig, recording, y - 0.01, fontsize=FONT["small"], wrap=95, title="Recording",
                 floor=FOOTER_HEIGHT + 0.01)
     return fig
+
+
+def _angle_flagged(result) -> bool:
+    """Whether the check ``angle_dependence`` ran and failed."""
+    return result.checks is not None and any(c.name == "angle_dependence" for c in result.checks.failed)
+
+
+def angle_rows(result, figure=None) -> list[tuple[str, str]]:
+    """Page 1's row on the stiffness against the angle, when the stiffness changes with the angle
+    within the cycle (the check ``angle_dependence`` failed) and the terms were fitted: how it goes,
+    in words and numbers, and where it is drawn."""
+    if not _angle_flagged(result):
+        return []
+    figure = figure or angle_figure(result)
+    if figure is None:
+        return []
+    u = result.trial.units
+    return [("Stiffness vs angle", angle_course_words(figure.course, u["angle"], u["stiffness"])
+             + f": a property of the joint, shown on page {ANGLE_PAGE}; the median summarises a stiffness "
+               "that varies with the angle")]
 
 
 def _verdict_box(fig, result, y: float) -> float:
@@ -119,18 +144,28 @@ def time_page(result):
 
 
 def relation_page(result):
-    """Page 3: stiffness against angle and against torque, as medians in bins over the samples."""
+    """Page 3: stiffness against angle and against torque, as medians in bins over the samples, and,
+    when the angle terms were fitted, the stiffness against the angle within the cycle from them
+    (:func:`~limbstiff.report.plots.plot_angle_course`)."""
     fig = new_page("Stiffness against angle and torque")
     if not result.observable.any():
         text_panel(fig.add_axes((0.06, 0.5, 0.88, 0.38)), "No sample of this trial is informed by motion, so the "
                    "stiffness cannot be related to the angle or the torque.", wrap=90)
         return fig
-    gs = grid(fig, 2, 1, hspace=0.25)
+    figure = angle_figure(result)
+    gs = grid(fig, 3 if figure is not None else 2, 1, hspace=0.45 if figure is not None else 0.25)
     for k, against in enumerate(("angle", "torque")):
         plot_relation(result, against, ax=fig.add_subplot(gs[k]), legend=k == 0)   # the same symbols
     fig.axes[0].set_title("black: median of the estimate in bins of equal counts, bars: the median "
                           f"{100 * result.ci_level:.0f} % band there; blue: 10th–90th percentile of the estimate "
                           "in the bin (its change over the trial)", fontsize=FONT["small"], loc="left", wrap=True)
+    if figure is not None:
+        u, word = result.trial.units, names(result.trial)
+        ax = plot_angle_course(fig.add_subplot(gs[2]), figure, units=u, word=word["angle"])
+        words = angle_course_words(figure.course, u["angle"], u["stiffness"])
+        note = ("; the course over time averages over it" if _angle_flagged(result) else "")
+        ax.set_title(textwrap.fill(f"Within the motion cycle (the angle terms): {words}{note}", 110),
+                     fontsize=FONT["small"], loc="left")
     return fig
 
 

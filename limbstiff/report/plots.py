@@ -7,11 +7,14 @@ matplotlib is imported inside the functions only.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 
+from ..estimate.angle_terms import AngleCourse, angle_course, fit_angle_terms
 from ..estimate.observer import informed_samples
+from ..statespace.steps import kalman_decimation, model_steps
 from .common import LIMIT_VALUES, envelope, envelope_band, robust_limits, shade_false
 
 #: Bins of the stiffness-against-angle/torque plots (equal counts of informed samples).
@@ -20,6 +23,8 @@ RELATION_BINS = 12
 MIN_BIN_SAMPLES = 30
 #: Points of the grey scatter behind the binned medians at most (evenly thinned beyond).
 SCATTER_POINTS = 4000
+#: Points of the smoothed course scattered behind the stiffness against angle at most.
+COURSE_POINTS = 3000
 #: Informed samples the bins are taken over at most (evenly thinned beyond: the medians of a long
 #: trial are the same within print resolution, at a fraction of the memory).
 BIN_SAMPLES = 500_000
@@ -188,4 +193,163 @@ def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATI
         ax.set_ylim(*limits)
     if legend:
         ax.legend(loc="upper right", framealpha=0.85)   # "best" scans every point: slow on a dense scatter
+    return ax
+
+
+class AngleFigure(NamedTuple):
+    """What the stiffness-against-angle plot draws (:func:`angle_figure`).
+
+    Parameters
+    ----------
+    course : AngleCourse
+        The stiffness against the angle from the angle terms, with its band.
+    angle, stiffness : ndarray, shape (k,)
+        The smoothed course at the informed model steps (thinned), against the angle as the
+        curve's: the operating angle plus the step's deflection, rad (m), N·m/rad (N/m).
+    """
+
+    course: AngleCourse
+    angle: np.ndarray
+    stiffness: np.ndarray
+
+
+def angle_figure(result) -> AngleFigure | None:
+    """The stiffness against the angle of a result, from its angle terms.
+
+    The analysis fits the terms on its Kalman model's steps (:mod:`limbstiff.estimate.angle_terms`)
+    and keeps only the check; they are fitted again here on the same steps (the filtered signals,
+    m and b, the noise levels of the result: the same numbers, in a few hundredths of a second).
+    The band adds the median stiffness's own interval to the terms' (in quadrature); a coupling
+    the stiffness was corrected for maps curve and band to the limb's.
+
+    Returns
+    -------
+    AngleFigure or None
+        None when the terms were not fitted: another estimator than ``kalman``, too few steps,
+        or a motion that cannot tell the terms apart (the check ``angle_dependence`` has no value).
+    """
+    checks = result.checks
+    if result.estimator != "kalman" or checks is None or result.fit.noise is None:
+        return None
+    try:
+        if checks["angle_dependence"].value is None:
+            return None
+    except KeyError:
+        return None
+    f = result.filtered
+    m = 0.0 if result.inertia is None else float(result.inertia.median)
+    b = 0.0 if result.damping is None else float(result.damping.median)
+    steps = model_steps(f.angle, f.elastic_torque(m, b), sample_period=f.sample_period,
+                        decimation=kalman_decimation(f.sample_period, f.cutoff_hz), edge=f.edge,
+                        motion_frequency=f.motion_hz, scale_from=f.torque)
+    terms = fit_angle_terms(steps, result.fit.noise, motion_frequency=f.motion_hz)
+    if terms is None:
+        return None
+    informed = informed_samples(result.observable)[steps.index]
+    limb = _limb_map(result)
+    course = result.stiffness[steps.index]
+    one_body = course if limb is None else _series(result, course)
+    median = result.informed_stiffness()[0]
+    half = 0.0
+    if median.lo is not None and median.hi is not None and np.isfinite(median.hi - median.lo):
+        half = 0.5 * float(median.hi - median.lo)
+    if limb is not None:
+        half = 0.0                       # the median's interval is the limb's: the terms' band alone
+    found = angle_course(terms, steps, one_body, informed, level=result.ci_level, level_half=half)
+    if limb is not None:
+        found = replace(found, stiffness=limb(found.stiffness), lo=limb(found.lo), hi=limb(found.hi))
+    shown = np.flatnonzero(informed)
+    shown = shown[::max(1, int(np.ceil(shown.size / COURSE_POINTS)))]
+    return AngleFigure(found, found.operating + steps.deflection[shown], course[shown])
+
+
+def _limb_map(result):
+    """The map from the one-body stiffness to the limb's when the result's stiffness was corrected
+    for a coupling (its check passed), else None."""
+    coupling = result.coupling
+    if coupling is None or not coupling.found:
+        return None
+    try:
+        corrected = result.checks["device_coupling"].passed
+    except KeyError:
+        return None
+    return coupling.limb_stiffness if corrected else None
+
+
+def _series(result, limb_stiffness: np.ndarray) -> np.ndarray:
+    """The springs-in-series stiffness K' = K·k_c/(K + k_c) of a limb's K (inverse of
+    :meth:`~limbstiff.coupling.CouplingFit.limb_stiffness`)."""
+    kc = result.coupling.coupling_stiffness
+    return limb_stiffness * kc / (limb_stiffness + kc)
+
+
+def angle_course_words(course: AngleCourse, unit_angle: str, unit_stiffness: str) -> str:
+    """The curve of :class:`AngleCourse` in words: how the stiffness goes from one end of the
+    angle range to the other (rises, falls, or is highest or lowest within it), with its values."""
+    k, g = course.stiffness, course.deflection
+    first, last, top, bottom = k[0], k[-1], int(np.argmax(k)), int(np.argmin(k))
+
+    def at(i):
+        return f"{k[i]:.3g} {unit_stiffness} at {g[i]:+.2g} {unit_angle}"
+
+    where = f" (angles from the operating angle {course.operating:.3g} {unit_angle})"
+    half = 0.5 * (course.hi - course.lo)
+
+    def inside(i):
+        """An extremum within the range, told from both ends by more than the band's half-width there."""
+        return 0 < i < len(k) - 1 and min(abs(k[i] - first), abs(k[i] - last)) > half[i]
+
+    if np.ptp(k) <= float(np.min(half)):
+        return (f"the stiffness does not change with the angle beyond its band: about {np.median(k):.3g} "
+                f"{unit_stiffness} from {g[0]:+.2g} to {g[-1]:+.2g} {unit_angle}{where}")
+    if inside(top) and not inside(bottom):
+        return (f"the stiffness is highest, {at(top)}, and lower towards both ends of the motion: "
+                f"{at(0)}, {at(len(k) - 1)}{where}")
+    if inside(bottom) and not inside(top):
+        return (f"the stiffness is lowest, {at(bottom)}, and higher towards both ends of the motion: "
+                f"{at(0)}, {at(len(k) - 1)}{where}")
+    if inside(top) and inside(bottom):          # a parabola has one extremum: not reached
+        return f"the stiffness goes from {at(0)} to {at(len(k) - 1)}{where}"
+    verb = "rises" if last > first else "falls"
+    return f"the stiffness {verb} from {at(0)} to {at(len(k) - 1)}{where}"
+
+
+def plot_angle_course(ax, figure: AngleFigure, *, units: dict | None = None, word: str = "angle",
+                      legend: bool = True):
+    """The stiffness against the angle from the angle terms: the curve with its band over the
+    central 95 % of the deflections, the smoothed course's samples lightly behind.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    figure : AngleFigure
+        From :func:`angle_figure`.
+    units : dict, optional
+        The trial's units (``angle``, ``stiffness``); rad and N·m/rad when omitted.
+    word : str
+        What the angle is called (``position`` for a translational trial).
+    legend : bool
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    u = {"angle": "rad", "stiffness": "N·m/rad", **(units or {})}
+    c = figure.course
+    ax.scatter(figure.angle, figure.stiffness, s=2, lw=0, color="0.65", alpha=0.35, rasterized=True,
+               label="smoothed course over time (model steps)")
+    ax.fill_between(c.angle, c.lo, c.hi, color="C3", alpha=0.22, lw=0, label=f"{100 * c.level:.0f} % band")
+    ax.plot(c.angle, c.stiffness, color="C3", lw=1.6, label=f"stiffness against {word} (within the cycle)")
+    ax.axvline(c.operating, color="0.4", lw=0.6, ls=":")
+    # the curve and its band whole, the scatter without its outliers
+    values = np.concatenate([np.percentile(figure.stiffness, [0.5, 99.5]) if figure.stiffness.size else [],
+                             c.lo, c.hi])
+    limits = robust_limits(values, pad=0.1, pct=(0, 100))
+    if limits is not None:
+        ax.set_ylim(*limits)
+    ax.set_xlim(c.angle[0] - 0.05 * np.ptp(c.angle), c.angle[-1] + 0.05 * np.ptp(c.angle))
+    ax.set_xlabel(f"{word} [{u['angle']}]  (dotted: the operating {word}, {c.operating:.3g} {u['angle']})")
+    ax.set_ylabel(f"stiffness [{u['stiffness']}]")
+    if legend:
+        ax.legend(loc="upper right", framealpha=0.85)
     return ax

@@ -5,7 +5,8 @@
 1. the answer: the verdict with its reasons, the stiffness over time with its band, the trial's
    figures with what each interval is, warnings, a short table of what was recorded;
 2. angle, torque and stiffness over time, uninformed stretches shaded;
-3. stiffness against angle and against torque (medians in bins with the band);
+3. stiffness against angle and against torque (medians in bins with the band), and the stiffness
+   against the angle within the motion cycle (from the angle terms, when they were fitted);
 4. posterior of inertia and damping (pairwise plot, priors drawn), or why there is none;
 5. data quality (sampling, bandwidth and spectra, quantisation, observer, MCMC);
 6. error against the reference stiffness (only when there is one).
