@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..estimate.angle_terms import AngleCourse, angle_course, fit_angle_terms
+from ..estimate.angle_terms import AngleCourse, AngleTerms, angle_course, fit_angle_terms
 from ..estimate.observer import informed_samples
 from ..statespace.steps import kalman_decimation, model_steps
 from .common import LIMIT_VALUES, envelope, envelope_band, robust_limits, shade_false
@@ -206,11 +206,14 @@ class AngleFigure(NamedTuple):
     angle, stiffness : ndarray, shape (k,)
         The smoothed course at the informed model steps (thinned), against the angle as the
         curve's: the operating angle plus the step's deflection, rad (m), N·m/rad (N/m).
+    terms : AngleTerms
+        The angle terms the curve is drawn from.
     """
 
     course: AngleCourse
     angle: np.ndarray
     stiffness: np.ndarray
+    terms: AngleTerms
 
 
 def angle_figure(result) -> AngleFigure | None:
@@ -260,7 +263,7 @@ def angle_figure(result) -> AngleFigure | None:
         found = replace(found, stiffness=limb(found.stiffness), lo=limb(found.lo), hi=limb(found.hi))
     shown = np.flatnonzero(informed)
     shown = shown[::max(1, int(np.ceil(shown.size / COURSE_POINTS)))]
-    return AngleFigure(found, found.operating + steps.deflection[shown], course[shown])
+    return AngleFigure(found, found.operating + steps.deflection[shown], course[shown], terms)
 
 
 def _limb_map(result):
