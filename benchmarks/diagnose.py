@@ -116,7 +116,7 @@ def _one(job):
 def _nominal_gap(trial, result, proto) -> float:
     """Held-out gap of the nominal model on a trial (as diagnose computes it)."""
     from limbstiff.diagnosis import crossval
-    from limbstiff.diagnosis.channels import channels_from
+    from limbstiff.effects.channels import channels_from
     problem = crossval.build_problem([channels_from(trial, result)])
     return float(crossval.evaluate(problem, []).unit_rss.sum() / np.sum(problem.deviation ** 2))
 

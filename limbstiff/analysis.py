@@ -10,6 +10,7 @@ for the external-torque variant — inertia and damping), runs the estimator and
 from __future__ import annotations
 
 import dataclasses
+from typing import Sequence
 
 import numpy as np
 from scipy import stats
@@ -20,7 +21,11 @@ from .coupling import MAX_CORRECTION, CouplingFit, detect_coupling
 from .checks import check_analysis
 from .checks.analysis import sign_hint
 from .checks.model import angle_terms_on
+from .checks.reflex import reflex_check
 from .checks.units import implausible_inertia, plausible, units_checks
+from .checks.reflex import ReflexShift
+from .checks.verdict import ModelChecks
+from .effects.in_model import ShapeProfile, filtered_without, reflex_probe, reflex_shift, terms_for
 from .errors import TrialError
 from .estimate import estimators, observer
 from .estimate.angle_terms import AngleTerms
@@ -29,6 +34,7 @@ from .estimate.informed import band_informed, uninformed_band
 from .statespace.noise import NoiseLevels
 from .statespace.steps import kalman_decimation, step_index
 from .filtered import Filtered, filter_trial
+from .mechanics.effect_terms import EffectTerms
 from .mechanics.identification import Identification, identify_mechanics
 from .protocol import Protocol
 from .result import DerivedSettings, StiffnessResult, result_units, software
@@ -125,12 +131,14 @@ def derive_settings(filtered: Filtered, protocol: Protocol, *, where: str = "tri
                            observable_window_s=OBSERVABLE_PERIODS / filtered.motion_hz)
 
 
-def _mechanics(filtered: Filtered, protocol: Protocol, *, seed: int, where: str) -> Identification | None:
+def _mechanics(filtered: Filtered, protocol: Protocol, *, seed: int, where: str,
+               effects: EffectTerms | None = None) -> Identification | None:
     """m and b for the external variant (with the check of the protocol's expected range)."""
     if filtered.variant != "external":
         return None
     try:
-        ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=where)
+        ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=where,
+                                   effects=effects)
     except TrialError as exc:
         hint = sign_hint(filtered)
         raise (TrialError(exc.source, f"{exc.problem}; {hint}") if hint else exc) from None
@@ -149,14 +157,65 @@ def _check_noise(filtered: Filtered, estimate: estimators.Estimate, ident: Ident
 
 
 def _estimate(filtered: Filtered, protocol: Protocol, derived: DerivedSettings,
-              ident: Identification | None) -> estimators.Estimate:
+              ident: Identification | None, extra: np.ndarray | None = None) -> estimators.Estimate:
     mech = {} if ident is None else {"inertia": ident.inertia.median, "damping": ident.damping.median}
     if protocol.estimator == "kalman":
         # the noise levels fitted with m and b (one likelihood for both), when they were fitted
-        return estimators.kalman(filtered, noise=None if ident is None else ident.noise_levels, **mech)
+        return estimators.kalman(filtered, noise=None if ident is None else ident.noise_levels,
+                                 extra_regressors=extra, **mech)
     return estimators.observers(filtered, smoothed=protocol.estimator == "observer-smoothed",
                                 gain=derived.observer_gain, velocity_threshold=derived.velocity_threshold,
                                 discretisation=protocol.discretisation, **mech)
+
+
+def _band(estimate: estimators.Estimate, ident: Identification | None, coupling: CouplingFit | None,
+          observable: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The stiffness and its ``level`` band, with the uncertainty of m, b and the effects'
+    amplitudes carried, the limb's when a coupling was found, unbounded where uninformed."""
+    z = float(stats.norm.ppf(0.5 + level / 2))
+    half = z * np.sqrt(np.maximum(estimate.variance_with(None if ident is None else ident.coefficient_covariance),
+                                  0.0))
+    stiffness, lo, hi = limb_stiffness(coupling, estimate.stiffness, estimate.stiffness - half,
+                                       estimate.stiffness + half)
+    lo, hi = uninformed_band(lo, hi, observable)
+    return stiffness, lo, hi
+
+
+def _estimate_and_probe(trial: Trial, filtered: Filtered, protocol: Protocol, derived: DerivedSettings,
+                        ident: Identification | None,
+                        terms: EffectTerms | None) -> tuple[estimators.Estimate, ShapeProfile | None]:
+    """The estimate, with the sensitivity to the effects in the model, or to the reflex the
+    ``reflex`` check probes for (:func:`reflex_probe`; at the estimator's noise levels when m and b
+    are given, which then runs twice)."""
+    probe = reflex_probe(trial, filtered, protocol, ident, None if ident is None else ident.noise_levels)
+    extra = terms.columns if terms is not None else (None if probe is None else probe.column[None])
+    estimate = _estimate(filtered, protocol, derived, ident, extra)
+    if probe is None and ident is not None and ident.given:
+        probe = reflex_probe(trial, filtered, protocol, ident, estimate.fit.noise)
+        if probe is not None:
+            estimate = _estimate(filtered, protocol, derived, ident, probe.column[None])
+    return estimate, probe
+
+
+def _reflex_shift(probe: ShapeProfile | None, estimate: estimators.Estimate, ident: Identification | None, lo, hi,
+                  observable) -> ReflexShift | None:
+    if probe is None or estimate.sensitivity is None or len(estimate.sensitivity) < 3:
+        return None
+    return reflex_shift(probe, sensitivity=estimate.sensitivity, coefficients=ident.coefficients[:2],
+                        intervals=None if ident.given else (ident.inertia, ident.damping),
+                        stiffness=estimate.stiffness, lo=lo, hi=hi, informed=observable)
+
+
+def _filtered_and_coupling(trial: Trial, protocol: Protocol):
+    """The trial filtered for the model, the corner scan, and the coupling found (the corner
+    lowered to :data:`COUPLING_CORNER` of its resonance when the scan chose it)."""
+    filtered, scan = filter_for_model(trial, protocol)
+    coupling = _coupling(trial, filtered)
+    if scan is not None and coupling is not None and coupling.found:
+        corner = COUPLING_CORNER * coupling.resonance_hz
+        if filtered.cutoff_hz is None or filtered.cutoff_hz > corner:
+            filtered = filter_trial(trial, protocol, corner_hz=corner)
+    return filtered, scan, coupling
 
 
 def _coupling(trial: Trial, filtered: Filtered) -> CouplingFit | None:
@@ -225,8 +284,9 @@ def trial_level_figures(filtered: Filtered, estimate: estimators.Estimate, ident
         draws += rng.multivariate_normal(angle.coefficients, angle.covariance, n_draws) @ missed
         sources.append("angle")
     if ident is not None and ident.posterior is not None and estimate.sensitivity is not None:
-        mech = ident.posterior.mechanics[rng.integers(0, len(ident.posterior.mechanics), n_draws)]
-        draws += (mech - [ident.inertia.median, ident.damping.median]) @ estimate.sensitivity[:, samples.index]
+        coef = ident.coefficient_draws          # m, b and the amplitudes of the effects in the model
+        coef = coef[rng.integers(0, len(coef), n_draws)]
+        draws += (coef - ident.coefficients) @ estimate.sensitivity[:coef.shape[1], samples.index]
         sources.append("mechanics")
     if not sources:
         draws = np.full_like(draws, np.nan)           # no joint uncertainty: no interval claimed
@@ -269,12 +329,14 @@ def _corner_text(corner_hz: float | None) -> str:
     return "no filter" if corner_hz is None else f"{corner_hz:.3g} Hz"
 
 
-def _observable(filtered: Filtered, derived: DerivedSettings) -> np.ndarray:
+def _observable(filtered: Filtered, derived: DerivedSettings, bridged: np.ndarray | None = None) -> np.ndarray:
     observable = observer.informed(filtered.velocity, observer_gain=derived.observer_gain,
                                    sample_period=filtered.sample_period, window=derived.observable_window_s,
                                    velocity_threshold=derived.velocity_threshold)
     edge = filtered.edge
     observable[:edge] = observable[len(observable) - edge:] = False     # derivatives unreliable there
+    if bridged is not None and len(bridged) == len(observable):
+        observable &= ~bridged           # interpolated across a gap in the file: not data
     return observable
 
 
@@ -301,7 +363,7 @@ def _warnings(trial: Trial, ident: Identification | None, observable: np.ndarray
 def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | None = None,
             damping: float | None = None, observer_gain: float | None = None,
             estimator: str | None = None, seed: int = 0,
-            reference: np.ndarray | None = None) -> StiffnessResult:
+            reference: np.ndarray | None = None, effects: Sequence[str] | None = None) -> StiffnessResult:
     """Estimate the stiffness course of one trial.
 
     Parameters
@@ -322,6 +384,11 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     reference : ndarray, shape (n,), optional, N·m/rad (N/m)
         Reference stiffness (for example from ``limbstiff calibrate``); defaults to the
         trial's ``stiffness_true``.
+    effects : sequence of str, optional
+        Unmodelled effects to put in the model (overrides the protocol's ``effects``; names of
+        :data:`limbstiff.protocol.MODEL_EFFECTS`, e.g. ``("reflex",)``): their shapes chosen from
+        the data, their amplitudes identified with m and b and carried into the band
+        (:mod:`limbstiff.effects.in_model`). External variant and Kalman estimator only.
 
     Returns
     -------
@@ -332,32 +399,25 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     TrialError
         When the trial cannot give a stiffness (no motion, missing channel…).
     """
-    protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping,
-                                                 observer_gain=observer_gain, estimator=estimator)
+    protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping, observer_gain=observer_gain,
+                                                 estimator=estimator,
+                                                 effects=None if effects is None else tuple(effects))
     where = _where(trial)
     found = plausible(trial, protocol)
-    filtered, scan = filter_for_model(trial, protocol)
-    coupling = _coupling(trial, filtered)
-    if scan is not None and coupling is not None and coupling.found:
-        corner = COUPLING_CORNER * coupling.resonance_hz
-        if filtered.cutoff_hz is None or filtered.cutoff_hz > corner:
-            filtered = filter_trial(trial, protocol, corner_hz=corner)
+    filtered, scan, coupling = _filtered_and_coupling(trial, protocol)
     derived = derive_settings(filtered, protocol, where=where)
-    ident = _mechanics(filtered, protocol, seed=seed, where=where)
-    estimate = _estimate(filtered, protocol, derived, ident)
-    observable = _observable(filtered, derived)
-    if trial.bridged is not None and len(trial.bridged) == len(observable):
-        observable &= ~trial.bridged           # interpolated across a gap in the file: not data
+    terms = terms_for(trial, filtered, protocol, where=where)
+    ident = _mechanics(filtered, protocol, seed=seed, where=where, effects=terms)
+    if terms is not None:
+        filtered = filtered_without(filtered, terms, ident.coefficients[2:])
+    estimate, probe = _estimate_and_probe(trial, filtered, protocol, derived, ident, terms)
+    observable = _observable(filtered, derived, trial.bridged)
     if not np.all(np.isfinite(estimate.stiffness)):
         raise TrialError(where, f"the {protocol.discretisation} observer diverged with gain "
                                 f"{derived.observer_gain:.3g} (use the exact discretisation or a lower gain)")
     if estimate.steps is not None:                # a posterior variance (the observers' is a spread of ratios)
         observable = band_informed(estimate.variance, observable)
-    z = float(stats.norm.ppf(0.5 + protocol.ci_level / 2))
-    half = z * np.sqrt(np.maximum(estimate.variance_with(None if ident is None else ident.covariance), 0.0))
-    stiffness, lo, hi = limb_stiffness(coupling, estimate.stiffness, estimate.stiffness - half,
-                                       estimate.stiffness + half)
-    lo, hi = uninformed_band(lo, hi, observable)
+    stiffness, lo, hi = _band(estimate, ident, coupling, observable, protocol.ci_level)
     corrected = stiffness is not estimate.stiffness
     angle = (None if estimate.steps is None else
              angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=filtered.motion_hz))
@@ -366,8 +426,9 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     checks = check_analysis(filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=_check_noise(filtered, estimate, ident), coupling=coupling,
                             corrected=corrected, angle_terms=angle)
-    found = implausible_inertia(trial, protocol, ident, found)
-    checks = units_checks(checks, found)
+    reflex = reflex_check(_reflex_shift(probe, estimate, ident, lo, hi, observable))
+    checks = units_checks(ModelChecks(checks.checks + ((reflex,) if reflex is not None else ())),
+                          implausible_inertia(trial, protocol, ident, found))
     return StiffnessResult(
         trial=trial, variant=filtered.variant, estimator=protocol.estimator, stiffness=stiffness,
         stiffness_lo=lo, stiffness_hi=hi, observable=observable,

@@ -84,6 +84,8 @@ def headline_rows(result) -> list[tuple[str, str]]:
     where = "informed samples" if result.observable.any() else "all samples: none is informed"
     rows.append(("Stiffness range", f"{number(low)} to {number(high, u['stiffness'])} over the trial ({where})"))
     rows += [(name.capitalize(), mechanics_text(result, name)) for name in ("inertia", "damping")]
+    rows += [(f"In the model: {e.name}", effect_text(e, pct)) for e in
+             (() if result.identification is None else result.identification.effects)]
     rows.append(("Informed by motion", f"{100 * result.observable_fraction:.1f} % of the trial"))
     err = result.reference_error()
     if err and err.get("median") is not None:
@@ -96,6 +98,19 @@ def headline_rows(result) -> list[tuple[str, str]]:
 def _failed(result, name: str) -> bool:
     """Whether the check ``name`` ran and failed."""
     return result.checks is not None and any(c.name == name for c in result.checks.failed)
+
+
+def shape_text(shape) -> str:
+    """An effect's shape parameters in words: delays in ms, the rest to 3 digits."""
+    return ", ".join(f"{k} {'none' if v is None else (f'{1e3 * v:.0f} ms' if k == 'delay' else f'{v:.3g}')}"
+                     for k, v in shape.items())
+
+
+def effect_text(effect, pct: str) -> str:
+    """The line of an effect put in the model (``--effect``): amplitude, interval and shape."""
+    shape = shape_text(effect.shape)
+    return (f"{effect.amplitude_name} {interval_text(effect.amplitude, effect.unit)}  — {pct} interval, identified "
+            f"with m and b" + (f"; {shape}" if shape else ""))
 
 
 def mechanics_text(result, name: str) -> str:

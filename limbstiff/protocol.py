@@ -23,6 +23,9 @@ from .units import UNITS
 QUANTITIES = ("time", "angle", "torque", "elastic_torque", "stiffness_true")
 VARIANTS = ("auto", "external", "direct")
 ESTIMATORS = ("kalman", "observer-smoothed", "observer")
+#: Unmodelled effects an analysis can put in its model (``[mechanics] effects``, ``--effect``): the torque
+#: effects of the library (:data:`limbstiff.effects.in_model.IN_MODEL`, which a test holds equal).
+MODEL_EFFECTS = ("coulomb_friction", "quadratic_damping", "hysteresis", "reflex")
 DISCRETISATIONS = ("exact", "euler")
 DERIVATIVES = ("zero-phase", "paper")
 PRIOR_DISTRIBUTIONS = ("lognormal", "halfnormal", "uniform")
@@ -145,6 +148,10 @@ class Protocol:
         The joint or set-up recorded (a key of :data:`limbstiff.plausibility.LIMBS`: ``ankle``,
         ``elbow``, ``vsa``…): its inertia, range of motion and torques bound the units check;
         None assumes any joint (:data:`limbstiff.plausibility.ANY_JOINT`).
+    effects : tuple of str
+        Unmodelled effects put in the model (names of :data:`MODEL_EFFECTS`, ``[mechanics] effects``):
+        their shape chosen from the data, their amplitudes identified with m and b
+        (:mod:`limbstiff.effects.in_model`). None by default.
     """
 
     name: str = "default"
@@ -173,6 +180,7 @@ class Protocol:
     inertia_range: tuple | None = None
     ci_level: float = 0.9
     limb: str | None = None
+    effects: tuple = ()
 
     def __post_init__(self):
         object.__setattr__(self, "columns", FrozenDict(self.columns))
@@ -197,8 +205,10 @@ class Protocol:
                 # a component only where one is set: the settings (and their hash) of other files unchanged
                 value = {q: {g.name: getattr(c, g.name) for g in fields(c)
                              if g.name != "component" or c.component is not None} for q, c in value.items()}
-            if f.name == "limb" and value is None:
-                continue        # the settings (and their hash) of protocols without a limb unchanged
+            if (f.name == "limb" and value is None) or (f.name == "effects" and not value):
+                continue        # the settings (and their hash) of protocols without a limb or effects unchanged
+            if f.name == "effects":
+                value = list(value)
             out[f.name] = value
         return out
 
@@ -213,7 +223,8 @@ _SECTIONS = {
                 "prefilter_time_constant": "prefilter_time_constant",
                 "dirty_derivative_time_constant": "dirty_derivative_time_constant",
                 "sample_period": "sample_period"},
-    "mechanics": {"inertia": "inertia", "damping": "damping", "expected_inertia": "inertia_range"},
+    "mechanics": {"inertia": "inertia", "damping": "damping", "expected_inertia": "inertia_range",
+                  "effects": "effects"},
     "report": {"ci_level": "ci_level"},
 }
 # Settings for which "auto" (None) means: derive from each trial's data.
@@ -333,6 +344,12 @@ def _check(p: Protocol) -> None:
     _check_format(p, where)
     if p.limb is not None and p.limb not in LIMBS:
         raise ProtocolError(where, f"'limb' must be one of {', '.join(LIMBS)}, not {p.limb!r}")
+    effects = (p.effects,) if isinstance(p.effects, str) else p.effects
+    if not isinstance(effects, (list, tuple)) or any(e not in MODEL_EFFECTS for e in effects) \
+            or len(set(effects)) != len(effects):
+        raise ProtocolError(where, f"'effects' must be a list of distinct effects among {', '.join(MODEL_EFFECTS)}, "
+                                   f"not {p.effects!r}")
+    object.__setattr__(p, "effects", tuple(effects))
     for name in ("prefilter_time_constant", "dirty_derivative_time_constant"):
         _positive(p, name, allow_none=False)
     if p.inertia_range is not None:

@@ -13,8 +13,8 @@ from click.testing import CliRunner
 
 from limbstiff.cli import main
 from limbstiff.diagnosis import selection, where
-from limbstiff.diagnosis.candidates import CANDIDATES
-from limbstiff.diagnosis.kinds import ModelEffect, TorqueEffect, remove
+from limbstiff.effects.candidates import CANDIDATES
+from limbstiff.effects.kinds import ModelEffect, TorqueEffect, remove
 from limbstiff.diagnosis.run import diagnose
 from limbstiff.files import write_trial
 from limbstiff.protocol import Protocol
@@ -155,8 +155,8 @@ def test_a_trials_own_selection_becomes_json_by_its_fields():
 
 def test_every_effect_knows_its_parameters_grid_and_removal():
     from limbstiff.analysis import analyze
-    from limbstiff.diagnosis.channels import channels_from
-    from limbstiff.diagnosis.kinds import Scales
+    from limbstiff.effects.channels import channels_from
+    from limbstiff.effects.kinds import Scales
     trial = simulate("ankle", seed=3, params={"duration": 8.0}, effect="time_delay",
                      effect_params={"delay": 0.02})
     proto = Protocol(inertia=float(trial.metadata["nominal_inertia"]),

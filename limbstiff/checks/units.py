@@ -56,7 +56,7 @@ def implausible_inertia(trial: Trial, protocol: Protocol, ident: Identification 
     can be real, so the clinician still sees the numbers, marked as not to be used, with the unit
     to check named in the reason. A given (not identified) inertia is not judged.
     """
-    if ident is None or ident.posterior is None or trial.kind != "rotational":
+    if ident is None or ident.given or trial.kind != "rotational":
         return found
     prior = protocol.inertia_prior
     limb = plausibility.limb_of(protocol.limb, expected_inertia=protocol.inertia_range,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ..protocol import ESTIMATORS
+from ..protocol import ESTIMATORS, MODEL_EFFECTS
 from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
                       protocol_option, reports_errors, scheduler_option, seed_option)
 
@@ -25,6 +25,9 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
               help="Fix the observer gain α (1/rad or 1/m) instead of deriving it from the data.")
 @click.option("--estimator", type=click.Choice(ESTIMATORS), default=None,
               help="Estimator (default kalman: Kalman filter and RTS smoother).")
+@click.option("--effect", "effects", type=click.Choice(MODEL_EFFECTS), multiple=True,
+              help="Put this unmodelled effect in the model (repeat for several): its shape chosen from the data, its "
+                   "amplitude identified with m and b; e.g. --effect reflex when the verdict names a stretch reflex.")
 @click.option("--reference", "reference_path", type=click.Path(dir_okay=False), default=None,
               help="Calibration JSON from 'limbstiff calibrate', used as reference stiffness.")
 @click.option("--sort-by", default="", metavar="KEY[,KEY...]",
@@ -34,7 +37,7 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
               help="Skip trials whose outputs are complete and match the input's SHA-256 and the settings.")
 @reports_errors
 def command(paths, protocol_path, out, jobs, scheduler, seed, no_pdf, inertia, damping, observer_gain, estimator,
-            reference_path, sort_by, overwrite, resume):
+            effects, reference_path, sort_by, overwrite, resume):
     """Estimate the stiffness of every trial in PATHS (files, folders, globs)."""
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
     from ..batch.jobs import analyze_files, check_reference
@@ -42,7 +45,8 @@ def command(paths, protocol_path, out, jobs, scheduler, seed, no_pdf, inertia, d
     from .progress import Progress
 
     protocol = load_protocol_or_default(protocol_path).override(
-        inertia=inertia, damping=damping, observer_gain=observer_gain, estimator=estimator)
+        inertia=inertia, damping=damping, observer_gain=observer_gain, estimator=estimator,
+        effects=tuple(effects) if effects else None)
     reference = check_reference(reference_path) if reference_path else None
     keys = [k.strip() for k in sort_by.split(",") if k.strip()]
     with dask_executor(scheduler) as executor:

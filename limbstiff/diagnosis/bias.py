@@ -15,8 +15,8 @@ from ..estimate.observer import informed_samples
 from ..filtered import filter_trial
 from ..protocol import Protocol
 from ..trial import Trial
-from .channels import Channels
-from .kinds import remove
+from ..effects.channels import Channels
+from ..effects.kinds import remove
 from .parts import StiffnessBias, TrialBias
 
 

@@ -24,8 +24,8 @@ from ..statespace.noise import NoiseLevels
 from ..statespace.linear import innovations
 from ..statespace.steps import ModelSteps, channel_steps, deflection
 from . import nominal
-from .channels import Channels
-from .kinds import ModelEffect
+from ..effects.channels import Channels
+from ..effects.kinds import ModelEffect
 
 #: Largest channel shift a candidate may apply, s (``effects.TIME_DELAYS_S``).
 MAX_SHIFT_S = 0.05

@@ -38,7 +38,7 @@ from ..estimate.observer import informed_samples
 from ..statespace.linear import marginal
 from ..statespace.noise import NoiseLevels, nelder_mead, noise_bounds
 from ..statespace.steps import ModelSteps, kalman_decimation
-from .channels import Channels
+from ..effects.channels import Channels
 
 #: Scoring units per time window of the "where" analysis.
 UNITS_PER_WINDOW = 4

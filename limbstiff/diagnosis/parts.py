@@ -385,3 +385,38 @@ class TrialSelection:
     effects: tuple[TrialEffect, ...]
     gap_heldout: float
     shrink_heldout: float | None
+
+
+@dataclass(frozen=True)
+class TrialStiffness:
+    """One trial's stiffness as ``summary.csv`` reports it, and with the chosen effects in the model.
+
+    Parameters
+    ----------
+    trial : str
+    reported : Interval
+        The median stiffness ``limbstiff analyze`` reports (``summary.csv``), with its interval, N·m/rad.
+    verdict : str
+        That analysis's verdict.
+    effects : tuple of str
+        The chosen effects put in the model (``limbstiff analyze --effect …``); empty when none
+        of them can be.
+    with_effects : Interval or None
+        The median stiffness of that analysis, with its interval (the effects' amplitudes' uncertainty
+        carried), N·m/rad; None when no effect could be put in the model or the analysis failed.
+    verdict_with_effects : str or None
+    inertia_with_effects, damping_with_effects : Interval or None
+        m (kg·m²) and b (N·m·s/rad) of that analysis.
+    note : str or None
+        Why there is no corrected stiffness, or which chosen effects could not be put in the model.
+    """
+
+    trial: str
+    reported: object
+    verdict: str
+    effects: tuple[str, ...]
+    with_effects: object | None
+    verdict_with_effects: str | None
+    inertia_with_effects: object | None = None
+    damping_with_effects: object | None = None
+    note: str | None = None

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import where
-from .channels import Channels
+from ..effects.channels import Channels
 from .where import Bin, CrossCorrelation, Spectrum, Whiteness
 
 #: Confidence level of the "where" bounds.

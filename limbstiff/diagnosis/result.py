@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Mapping
 from .. import __version__
 from ..files.outputs import jsonable
 from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StiffnessBias, TrialInfo,
-                    TrialSelection)
+                    TrialSelection, TrialStiffness)
 
 if TYPE_CHECKING:
     from .residual import TrialSeries, Where
@@ -132,6 +132,9 @@ class Diagnosis:
     disagreements : tuple of str
         A warning when a trial's own selection differs from the pooled one: the trials, their
         effects, and what to do; empty when they agree.
+    stiffness : tuple of TrialStiffness
+        Per trial, the stiffness ``summary.csv`` reports and the stiffness with the chosen effects
+        in the model (``limbstiff analyze --effect``), each with its interval.
     """
 
     trials: tuple[TrialInfo, ...]
@@ -153,6 +156,7 @@ class Diagnosis:
     series: Mapping[str, TrialSeries] = field(default_factory=dict, repr=False, compare=False)
     per_trial: tuple[TrialSelection, ...] = ()
     disagreements: tuple[str, ...] = ()
+    stiffness: tuple[TrialStiffness, ...] = ()
 
     def candidate(self, name: str) -> Candidate:
         return next(c for c in self.candidates if c.effect == name)
@@ -165,6 +169,7 @@ class Diagnosis:
             "diagnosis": list(self.diagnosis),
             "per_trial": list(self.per_trial),
             "disagreements": list(self.disagreements),
+            "stiffness": list(self.stiffness),
             "candidates": list(self.candidates),
             "after": self.after,
             "ambiguities": list(self.ambiguities),

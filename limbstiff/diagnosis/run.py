@@ -8,6 +8,7 @@ trial files and writes ``diagnosis.json`` and ``diagnosis.pdf``.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,17 +19,17 @@ import numpy as np
 from ..blas_threads import one_blas_thread
 from ..analysis import analyze, range_of_motion
 from ..errors import LimbstiffError, TrialError
-from ..protocol import Protocol
+from ..protocol import MODEL_EFFECTS, Protocol
 from ..result import StiffnessResult
 from ..trial import Trial
 from . import crossval, nominal, residual, selection
 from .bias import median_stiffness, stiffness_change
-from .channels import channels_from
-from .candidates import CANDIDATES
-from .kinds import MechanicsOffset
+from ..effects.channels import channels_from
+from ..effects.candidates import CANDIDATES
+from ..effects.kinds import MechanicsOffset
 from .per_trial import chosen_fits, disagreements, trial_selections
 from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StepScore, StiffnessBias,
-                    StiffnessWalks, TrialInfo)
+                    StiffnessWalks, TrialInfo, TrialStiffness)
 from .result import Candidate, Diagnosis
 
 #: Held-out blocks of a single trial.
@@ -86,7 +87,8 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     TrialError
         A trial that cannot be analysed or is too short to diagnose.
     """
-    protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping)
+    # the nominal model holds no effect: those the protocol puts in the model are candidates like any other
+    protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping, effects=())
     trials = list(trials)
     results = list(results) if results is not None else [analyze(t, protocol, seed=seed) for t in trials]
     channels = [channels_from(t, r) for t, r in zip(trials, results)]
@@ -117,7 +119,8 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
                      diagnosis=tuple(run.chosen), steps=tuple(_steps(run)), ambiguities=tuple(run.sel.ambiguities),
                      after=after, settings=_settings(protocol.ci_level), notes=tuple(notes),
                      warnings=tuple(w for r in results for w in r.warnings), seed=seed, series=series,
-                     per_trial=alone, disagreements=disagreements(tuple(run.chosen), alone))
+                     per_trial=alone, disagreements=disagreements(tuple(run.chosen), alone),
+                     stiffness=_stiffness_with_effects(run))
 
 
 @dataclass(frozen=True)
@@ -173,6 +176,33 @@ class _Run:
         """:func:`stiffness_change` of the same fitted effects removed from every trial."""
         return stiffness_change(self.trials, self.results, self.channels, self.protocol, [fitted] * len(self.trials),
                                 nominal_stiffness=self.nominal_stiffness, mechanics=mechanics)
+
+
+def _stiffness_with_effects(run: _Run) -> tuple[TrialStiffness, ...]:
+    """Per trial, the stiffness ``summary.csv`` reports and the analysis's with the chosen effects
+    that can be put in the model (:data:`~limbstiff.protocol.MODEL_EFFECTS`) in it."""
+    in_model = tuple(n for n in run.chosen if n in MODEL_EFFECTS)
+    left = [n for n in run.chosen if n not in MODEL_EFFECTS]
+    note = (f"{' and '.join(left)} cannot be put in the analysis's model (a corrected channel or an offset of m "
+            "or b): its corrected median, without an interval, is after.stiffness_bias") if left else None
+    out = []
+    for trial, result in zip(run.trials, run.results):
+        reported = result.informed_stiffness()[0]
+        row = TrialStiffness(trial=trial.name, reported=reported, verdict=result.verdict, effects=in_model,
+                             with_effects=None, verdict_with_effects=None,
+                             note=note or (None if run.chosen else "no effect chosen"))
+        if in_model:
+            try:
+                corrected = analyze(trial, run.protocol, seed=run.seed, effects=in_model)
+            except LimbstiffError as exc:
+                row = dataclasses.replace(row, note=f"the analysis with {', '.join(in_model)} in the model failed: "
+                                                    f"{exc}")
+            else:
+                row = dataclasses.replace(row, with_effects=corrected.informed_stiffness()[0],
+                                          verdict_with_effects=corrected.verdict, inertia_with_effects=corrected.inertia,
+                                          damping_with_effects=corrected.damping)
+        out.append(row)
+    return tuple(out)
 
 
 #: The effect names of the interface (docs/interface.md section 5) and why one is not tried as a term.

@@ -30,7 +30,7 @@ from itertools import product
 import numpy as np
 
 from . import crossval
-from .kinds import ModelEffect, Scales
+from ..effects.kinds import ModelEffect, Scales
 
 #: Family-wise error rate of a selection step (Holm over the candidates).
 ALPHA = 0.05

@@ -60,8 +60,9 @@ class Estimate:
     stiffness : ndarray, shape (n,), N·m/rad (N/m)
     variance : ndarray, shape (n,), (N·m/rad)²
         The estimator's own variance of the stiffness (m and b taken as exact).
-    sensitivity : ndarray, shape (2, n), or None
-        ∂σ̂/∂m and ∂σ̂/∂b (external variant): the estimate is affine in (m, b), so
+    sensitivity : ndarray, shape (2 + k, n), or None
+        ∂σ̂/∂m and ∂σ̂/∂b (external variant), then ∂σ̂/∂a for the amplitude a of each effect
+        torque given (``extra_regressors``): the estimate is affine in them, so
         σ̂(m', b') = σ̂ + (m' − m)·sensitivity[0] + (b' − b)·sensitivity[1] exactly.
     fit : EstimatorFit
     steps : ModelSteps or None
@@ -75,20 +76,29 @@ class Estimate:
     steps: ModelSteps | None = None
 
     def variance_with(self, covariance: np.ndarray | None) -> np.ndarray:
-        """Total variance once a covariance (2, 2) of (m, b) is carried through the sensitivity."""
+        """Total variance once a covariance (p, p) of (m, b, amplitudes…) is carried through the
+        first p rows of the sensitivity."""
         if covariance is None or self.sensitivity is None:
             return self.variance
-        g = self.sensitivity
         c = np.asarray(covariance)
-        return self.variance + c[0, 0] * g[0] ** 2 + 2 * c[0, 1] * g[0] * g[1] + c[1, 1] * g[1] ** 2
+        g = self.sensitivity[:len(c)]
+        if len(c) == 2:
+            return self.variance + c[0, 0] * g[0] ** 2 + 2 * c[0, 1] * g[0] * g[1] + c[1, 1] * g[1] ** 2
+        return self.variance + np.einsum("in,ij,jn->n", g, c, g)
 
 
 def kalman(filtered: Filtered, *, inertia: float | None = None, damping: float | None = None,
-           noise: NoiseLevels | None = None) -> Estimate:
-    """Kalman/RTS estimate; without ``inertia`` and ``damping`` the direct variant."""
+           noise: NoiseLevels | None = None, extra_regressors: np.ndarray | None = None) -> Estimate:
+    """Kalman/RTS estimate; without ``inertia`` and ``damping`` the direct variant.
+
+    ``extra_regressors`` (k, n): torques per unit amplitude (effects in the model, already taken
+    off ``filtered.torque``) whose amplitudes' sensitivities follow m's and b's.
+    """
     external = inertia is not None
     measured = filtered.elastic_torque(inertia, damping) if external else filtered.torque
     regressors = (filtered.acceleration, filtered.velocity) if external else ()
+    if external and extra_regressors is not None:
+        regressors += tuple(np.atleast_2d(extra_regressors))
     decimation = kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
     fit = kalman_stiffness(filtered.angle, measured, sample_period=filtered.sample_period, decimation=decimation,
                            noise=noise, regressors=regressors, motion_frequency=filtered.motion_hz,

@@ -20,6 +20,7 @@ from ..protocol import Protocol
 from ..statespace.noise import NoiseLevels
 from ..statespace.steps import kalman_decimation
 from .angle_error import NO_EFFECT, AngleErrorEffect, angle_error_effect
+from .effect_terms import EffectFit, EffectTerms, effect_fits
 from .least_squares import LeastSquaresFit, least_squares
 from .fixed_b import bartlett_fixed_b
 from .likelihood import MechanicsFit, MechanicsProblem, kalman_mechanics, robust_covariance
@@ -57,6 +58,9 @@ class Identification:
     angle_error : AngleErrorEffect
         What the angle's quantisation or noise does to (m, b): its shift is taken off the
         posterior draws and its spread added to them.
+    effects : tuple of EffectFit
+        The unmodelled effects put in the model, their amplitudes identified with m and b
+        (``limbstiff analyze --effect``); none by default.
     """
 
     method: str
@@ -71,6 +75,7 @@ class Identification:
     warnings: tuple[str, ...] = field(default=())
     expected_inertia: tuple[float, float] | None = None
     angle_error: AngleErrorEffect = NO_EFFECT
+    effects: tuple[EffectFit, ...] = ()
 
     @property
     def given(self) -> bool:
@@ -84,9 +89,35 @@ class Identification:
         lo, hi = self.expected_inertia
         return bool(lo <= self.inertia.median <= hi)
 
+    @property
+    def coefficients(self) -> np.ndarray:
+        """Medians of the model's linear coefficients (m, b, the effects' amplitudes…), shape (2 + k,)."""
+        return np.array([self.inertia.median, self.damping.median] + [e.amplitude.median for e in self.effects])
+
+    @property
+    def coefficient_draws(self) -> np.ndarray | None:
+        """Posterior draws of (m, b, amplitudes…), shape (n_draws, 2 + k), given values held fixed;
+        None without a posterior."""
+        if self.posterior is None:
+            return None
+        draws = self.posterior.coefficients.copy()
+        for j, value in enumerate((self.inertia, self.damping)):
+            if value.is_fixed:
+                draws[:, j] = value.median
+        return draws
+
+    @property
+    def coefficient_covariance(self) -> np.ndarray:
+        """Covariance of (m, b, amplitudes…), shape (2 + k, 2 + k): :attr:`covariance` without effects."""
+        if not self.effects or self.posterior is None:
+            return self.covariance
+        return np.atleast_2d(np.cov(self.coefficient_draws.T))
+
     def to_dict(self) -> dict:
         """JSON-ready (``identification`` of ``summary.json`` and ``posterior.json``)."""
         out = {"method": "given"} if self.given else self._fits_dict()
+        if self.effects:
+            out["effects"] = [e.to_dict() for e in self.effects]
         if self.expected_inertia is not None:
             out["inertia_in_expected_range"] = {"range": list(self.expected_inertia),
                                                 "inside": self.inertia_in_expected_range}
@@ -105,7 +136,7 @@ class Identification:
 
 
 def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random.Generator, seed: int,
-                       where: str = "trial") -> Identification:
+                       where: str = "trial", effects: EffectTerms | None = None) -> Identification:
     """Inertia and damping: the protocol's where given, else least squares → ML → emcee posterior.
 
     Parameters
@@ -120,6 +151,9 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
         Recorded in the MCMC diagnostics.
     where : str
         The trial's file, for error messages.
+    effects : EffectTerms, optional
+        Effects put in the model: their amplitudes are identified with m and b (also when m and
+        b are given), and their uncertainty carried with them.
 
     Returns
     -------
@@ -131,38 +165,57 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
         When a posterior median is not positive (the data do not determine it).
     """
     m, b = protocol.inertia, protocol.damping
-    if m is not None and b is not None:
+    given = (m, b) if m is not None and b is not None else None
+    if given is not None and not effects:
         return Identification("given", Interval.fixed(m), Interval.fixed(b), np.zeros((2, 2)))
     guess = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
                           sample_period=filtered.sample_period, window=IDENTIFY_PERIODS / filtered.motion_hz)
     decimation = kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
     problem = MechanicsProblem.build(filtered.angle, filtered.velocity, filtered.acceleration, filtered.torque,
                                      sample_period=filtered.sample_period, decimation=decimation,
-                                     motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge)
+                                     motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge,
+                                     extra=None if not effects else effects.columns, given=given)
     fit = kalman_mechanics(problem, guess=guess)
     post = sample(problem, start=fit, inertia_prior=protocol.inertia_prior, damping_prior=protocol.damping_prior,
-                  rng=rng, seed=seed)
-    effect = _angle_error(filtered, fit, guess, decimation, rng)
+                  rng=rng, seed=seed, given=given)
+    effect = NO_EFFECT if given is not None else _angle_error(filtered, fit, guess, decimation, rng)
     applied, refused = _angle_error_use(post, effect)
     post = _with_robust_spread(post, problem, fit, filtered.motion_hz,
                                effect.in_residual if applied else np.zeros((2, 2)), rng)
     post = (_with_angle_error(post, effect, rng) if applied
             else dataclasses.replace(post, warnings=post.warnings + refused))
-    draws = post.mechanics.copy()
-    out = []
-    for j, (name, given) in enumerate((("inertia", m), ("damping", b))):
-        if given is not None:
-            draws[:, j] = given
-            out.append(Interval.fixed(given))
+    out, draws = _mechanics_intervals(post, (m, b), protocol.ci_level, where, reflex_hint=not effects)
+    return Identification("given" if given is not None else "kalman+emcee", out[0], out[1], np.cov(draws.T),
+                          least_squares=guess, maximum_likelihood=fit, posterior=post,
+                          noise_levels=post.noise_levels(), decimation=decimation, warnings=tuple(post.warnings),
+                          angle_error=effect, effects=effect_fits(effects, post.amplitudes, protocol.ci_level))
+
+
+def _mechanics_intervals(post: Posterior, given, level: float, where: str, *,
+                         reflex_hint: bool) -> tuple[list[Interval], np.ndarray]:
+    """The intervals of m and b (fixed where ``given``) and their draws (n, 2).
+
+    Raises
+    ------
+    TrialError
+        When a posterior median is not positive; without effects in the model the message
+        names a stretch reflex, which takes damping below zero when left out (a delayed
+        velocity torque that resists motion less than in phase with it).
+    """
+    draws, out = post.mechanics.copy(), []
+    for j, (name, value) in enumerate(zip(("inertia", "damping"), given)):
+        if value is not None:
+            draws[:, j] = value
+            out.append(Interval.fixed(value))
             continue
-        iv = Interval.of_draws(draws[:, j], protocol.ci_level)
+        iv = Interval.of_draws(draws[:, j], level)
         if not iv.median > 0:
+            hint = (" — or, if a stretch reflex may act, put it in the model with --effect reflex" if reflex_hint
+                    else "")
             raise TrialError(where, f"{name} could not be identified (its posterior median is "
-                                    f"{iv.median:.3g}); give it with --{name} or in the protocol")
+                                    f"{iv.median:.3g}); give it with --{name} or in the protocol{hint}")
         out.append(iv)
-    return Identification("kalman+emcee", out[0], out[1], np.cov(draws.T), least_squares=guess,
-                          maximum_likelihood=fit, posterior=post, noise_levels=post.noise_levels(),
-                          decimation=decimation, warnings=tuple(post.warnings), angle_error=effect)
+    return out, draws
 
 
 def _angle_error(filtered: Filtered, fit: MechanicsFit, guess: LeastSquaresFit, decimation: int,
@@ -182,12 +235,12 @@ def _angle_error(filtered: Filtered, fit: MechanicsFit, guess: LeastSquaresFit, 
 
 def _with_robust_spread(post: Posterior, problem: MechanicsProblem, fit: MechanicsFit, motion_frequency: float,
                         counted_elsewhere: np.ndarray, rng: np.random.Generator) -> Posterior:
-    """The posterior draws of (m, b) spread as the sandwich covariance says instead of the model's
-    (:func:`robust_covariance` at the maximum-likelihood noise levels), with the sandwich's own
-    error carried.
+    """The posterior draws of the coefficients (m, b, the effects' amplitudes) spread as the sandwich
+    covariance says instead of the model's (:func:`robust_covariance` at the maximum-likelihood
+    noise levels), with the sandwich's own error carried.
 
-    The target is the sandwich less ``counted_elsewhere`` (the angle error's part, whose spread
-    is added by :func:`_with_angle_error`), its negative directions set to 0. The draws are
+    The target is the sandwich less ``counted_elsewhere`` (the angle error's part of (m, b), whose
+    spread is added by :func:`_with_angle_error`), its negative directions set to 0. The draws are
     mapped about their mean by T = S^½·L_model⁻¹ (S^½ the target's symmetric square root,
     L_model the model covariance's Cholesky factor), which takes one covariance to the other,
     then each scaled by a factor of the fixed-b limit of the Bartlett long-run variance
@@ -197,19 +250,24 @@ def _with_robust_spread(post: Posterior, problem: MechanicsProblem, fit: Mechani
     share of 0.063–0.145 of the steps (wrists to ankles), and the ankles' intervals of m held the truth in
     81 % without the factors.
     """
-    robust = robust_covariance(problem, fit.noise.logs(), np.array([fit.inertia, fit.damping]),
-                               motion_frequency=motion_frequency)
-    values, vectors = np.linalg.eigh(robust.sandwich - counted_elsewhere)
+    mean = np.concatenate([[fit.inertia, fit.damping][:problem.n_mechanics], fit.amplitudes])
+    robust = robust_covariance(problem, fit.noise.logs(), mean, motion_frequency=motion_frequency)
+    elsewhere = np.zeros_like(robust.sandwich)
+    k = problem.n_mechanics
+    elsewhere[:k, :k] = np.asarray(counted_elsewhere)[:k, :k]
+    values, vectors = np.linalg.eigh(robust.sandwich - elsewhere)
     root = (vectors * np.sqrt(np.maximum(values, 0.0))) @ vectors.T
     try:
         t = root @ np.linalg.inv(np.linalg.cholesky(robust.model))
     except np.linalg.LinAlgError:
         return post
+    coef = post.coefficients[:, 2 - k:]
+    centre = coef.mean(axis=0)
+    factors = bartlett_fixed_b(robust.lag_share).spread_factors(len(coef), rng)
+    coef = centre + factors[:, None] * ((coef - centre) @ t.T)
     draws = post.draws.copy()
-    centre = draws[:, :2].mean(axis=0)
-    factors = bartlett_fixed_b(robust.lag_share).spread_factors(len(draws), rng)
-    draws[:, :2] = centre + factors[:, None] * ((draws[:, :2] - centre) @ t.T)
-    return dataclasses.replace(post, draws=draws)
+    draws[:, :k] = coef[:, :k]
+    return dataclasses.replace(post, draws=draws, amplitudes=coef[:, k:])
 
 
 def _angle_error_use(post: Posterior, effect: AngleErrorEffect) -> tuple[bool, tuple[str, ...]]:

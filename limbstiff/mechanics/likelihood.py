@@ -8,7 +8,7 @@ so one filter pass over the channels (f, ÿ, ẏ) gives the likelihood as a quad
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,12 +26,17 @@ class MechanicsFit:
     Parameters
     ----------
     inertia, damping : float
-        Posterior mean of m (kg·m² or kg) and b (N·m·s/rad or N·s/m) at the fitted noise levels.
-    covariance : ndarray, shape (2, 2)
-        Their posterior covariance (Gaussian and exact for the linear model, given the noise).
+        Posterior mean of m (kg·m² or kg) and b (N·m·s/rad or N·s/m) at the fitted noise levels
+        (NaN when they are given: :attr:`MechanicsProblem.fits_mechanics` False).
+    covariance : ndarray, shape (p, p)
+        The posterior covariance of the fitted coefficients (m, b, then the effects' amplitudes;
+        the amplitudes only when m and b are given): Gaussian and exact for the linear model,
+        given the noise.
     noise : NoiseLevels
     loglik : float
-        Log marginal likelihood of the noise levels (m and b integrated out, flat prior).
+        Log marginal likelihood of the noise levels (the coefficients integrated out, flat prior).
+    amplitudes : ndarray, shape (k,)
+        Posterior mean of the amplitudes of the effects in the model (none without effects).
     """
 
     inertia: float
@@ -39,6 +44,7 @@ class MechanicsFit:
     covariance: np.ndarray
     noise: NoiseLevels
     loglik: float
+    amplitudes: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 @dataclass(frozen=True)
@@ -47,29 +53,47 @@ class MechanicsProblem:
     (:func:`~limbstiff.statespace.steps.mechanics_steps`, at most
     :data:`~limbstiff.statespace.steps.MAX_IDENTIFY_STEPS` of them) and the bounds of the log
     noise levels (4, 2), sized on z at the least-squares guess.
+
+    With effects in the model their torques per unit amplitude follow as channels, and their
+    amplitudes are linear coefficients like m and b; with m and b given (``fits_mechanics``
+    False) channel 0 is z and the amplitudes are the only coefficients.
     """
 
     steps: ModelSteps
     bounds: np.ndarray
+    fits_mechanics: bool = True
 
     @classmethod
     def build(cls, angle, velocity, acceleration, torque, *, sample_period: float, decimation: int,
-              motion_frequency: float, guess: LeastSquaresFit, edge: int = 0) -> "MechanicsProblem":
-        steps = mechanics_steps(angle, velocity, acceleration, torque, sample_period=sample_period,
-                                decimation=decimation, motion_frequency=motion_frequency, edge=edge)
+              motion_frequency: float, guess: LeastSquaresFit, edge: int = 0, extra: np.ndarray | None = None,
+              given: tuple[float, float] | None = None) -> "MechanicsProblem":
+        """The problem on the trial's filtered signals (n,); ``extra`` (k, n) the effects' torques
+        per unit amplitude; ``given`` (m, b) when they are not fitted."""
+        torque = np.asarray(torque, dtype=float)
+        z_given = None if given is None else torque - given[0] * acceleration - given[1] * velocity
+        steps = mechanics_steps(angle, velocity, acceleration, torque if given is None else z_given,
+                                sample_period=sample_period, decimation=decimation,
+                                motion_frequency=motion_frequency, edge=edge, extra=extra,
+                                with_mechanics=given is None, scale_from=torque)
         chans = steps.channels
-        z = chans[0] - guess.inertia * chans[1] - guess.damping * chans[2]
+        z = chans[0] - guess.inertia * chans[1] - guess.damping * chans[2] if given is None else chans[0]
         bounds = np.array(noise_bounds(float(np.var(z)), float(np.sqrt(steps.initial_cov[2])), motion_frequency))
-        return cls(steps, bounds)
+        return cls(steps, bounds, given is None)
+
+    @property
+    def n_mechanics(self) -> int:
+        """How many of the coefficients are m and b (2, or 0 when they are given)."""
+        return 2 if self.fits_mechanics else 0
 
     def conditional(self, log_noise):
-        """Log marginal likelihood of the noise levels, and the Gaussian posterior of (m, b).
+        """Log marginal likelihood of the noise levels, and the Gaussian posterior of the
+        coefficients (m, b, then the effects' amplitudes).
 
         Returns
         -------
         loglik : float
-        mean : ndarray, shape (2,)
-        cov : ndarray, shape (2, 2)
+        mean : ndarray, shape (p,)
+        cov : ndarray, shape (p, p)
         """
         out = marginal(self.steps, NoiseLevels.from_logs(log_noise))
         return out.loglik, out.coefficients, out.covariance
@@ -77,13 +101,13 @@ class MechanicsProblem:
 
 @dataclass(frozen=True)
 class RobustCovariance:
-    """The covariance of (m, b) the model gives and the sandwich one.
+    """The covariance of the coefficients (m, b, amplitudes) the model gives and the sandwich one.
 
     Parameters
     ----------
-    model : ndarray, shape (2, 2)
-        H⁻¹, H = Σ x·xᵀ over the standardised innovations x of ÿ and ẏ.
-    sandwich : ndarray, shape (2, 2)
+    model : ndarray, shape (p, p)
+        H⁻¹, H = Σ x·xᵀ over the standardised innovations x of ÿ and ẏ (and the effects' torques).
+    sandwich : ndarray, shape (p, p)
         H⁻¹·M·H⁻¹, M the long-run covariance of the scores x·ε (:func:`~limbstiff.statespace.linear.long_run_covariance`).
     lag_share : float
         Lags of M ÷ innovations: the b of its fixed-b limit (:mod:`limbstiff.mechanics.fixed_b`).
@@ -108,8 +132,8 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
     ----------
     problem : MechanicsProblem
     log_noise : array, shape (4,)
-    mean : ndarray, shape (2,)
-        (m, b) at which the residuals are taken.
+    mean : ndarray, shape (p,)
+        The coefficients (m, b, amplitudes) at which the residuals are taken.
     motion_frequency : float, Hz
         Sets the lags (:data:`~limbstiff.statespace.linear.LONG_RUN_PERIODS`).
 
@@ -119,7 +143,7 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
     """
     e, var = innovations(problem.steps, NoiseLevels.from_logs(log_noise))
     e = e / np.sqrt(var)
-    x, residual = e[1:].T, e[0] - mean[0] * e[1] - mean[1] * e[2]
+    x, residual = e[1:].T, e[0] - np.asarray(mean) @ e[1:]
     model, sandwich = sandwich_covariance(x, residual, motion_frequency=motion_frequency, step=problem.steps.step)
     return RobustCovariance(model, sandwich, long_run_lags(motion_frequency, problem.steps.step) / len(residual))
 
@@ -148,5 +172,7 @@ def kalman_mechanics(problem: MechanicsProblem, *, guess: LeastSquaresFit,
     best, _ = maximise(lambda logs: problem.conditional(logs)[0], start, list(problem.bounds),
                                  max_evaluations)
     loglik, mean, cov = problem.conditional(best)
-    return MechanicsFit(inertia=float(mean[0]), damping=float(mean[1]), covariance=cov,
-                        noise=NoiseLevels(*np.exp(best)), loglik=loglik)
+    k = problem.n_mechanics
+    m, b = (float(mean[0]), float(mean[1])) if k else (float("nan"), float("nan"))
+    return MechanicsFit(inertia=m, damping=b, covariance=cov, noise=NoiseLevels(*np.exp(best)), loglik=loglik,
+                        amplitudes=np.asarray(mean[k:], dtype=float))

@@ -70,18 +70,29 @@ class McmcDiagnostics:
 
 @dataclass(frozen=True)
 class Posterior:
-    """Posterior draws of θ = (m, b, ln R, ln Q_s, ln Q_σ, ln Q_c).
+    """Posterior draws of θ = (m, b, ln R, ln Q_s, ln Q_σ, ln Q_c), and of the amplitudes of the
+    effects in the model.
 
     Parameters
     ----------
     draws : ndarray, shape (n_draws, 6)
+        m and b are the given values in every draw when they were given.
     diagnostics : McmcDiagnostics
     warnings : tuple of str
+    amplitudes : ndarray, shape (n_draws, k)
+        The effects' amplitudes, drawn with m and b (k = 0 without effects).
     """
 
     draws: np.ndarray
     diagnostics: McmcDiagnostics
     warnings: tuple[str, ...] = field(default=())
+    amplitudes: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+
+    @property
+    def coefficients(self) -> np.ndarray:
+        """Draws of (m, b, amplitudes…), shape (n_draws, 2 + k): the model's linear coefficients."""
+        amps = self.amplitudes if len(self.amplitudes) == len(self.draws) else np.zeros((len(self.draws), 0))
+        return np.hstack([self.draws[:, :2], amps])
 
     @property
     def mechanics(self) -> np.ndarray:
@@ -172,7 +183,7 @@ def autocorr_time(chain: np.ndarray) -> np.ndarray:
 
 
 def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: np.random.Generator,
-           seed: int) -> Posterior:
+           seed: int, given: tuple[float, float] | None = None) -> Posterior:
     """Posterior of (m, b) and the noise levels: emcee on the noise levels, m and b exactly.
 
     For given noise levels the likelihood is Gaussian in (m, b) (see
@@ -191,6 +202,8 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
         Source of every random draw (walkers' start, emcee's generator, conditional draws).
     seed : int
         Recorded in the diagnostics.
+    given : (float, float), optional
+        m and b when they are given (the problem then fits the effects' amplitudes only).
 
     Returns
     -------
@@ -206,7 +219,7 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     flat = sampler.get_chain(discard=burn, flat=True)
     thin = max(1, len(flat) // N_DRAWS)
     noise = flat[::thin][-N_DRAWS:]
-    draws, why = _with_mechanics(problem, noise, inertia_prior, damping_prior, rng)
+    draws, amplitudes, why = _with_mechanics(problem, noise, inertia_prior, damping_prior, rng, given)
     warnings += why
     acceptance = float(np.mean(sampler.acceptance_fraction))
     if not 0.15 <= acceptance <= 0.7:
@@ -214,7 +227,7 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     diag = McmcDiagnostics(n_walkers=N_WALKERS, n_steps=steps, burn_in=burn, thin=thin,
                            autocorr_time=dict(zip(PARAMETERS[2:], map(float, tau))),
                            acceptance_fraction=acceptance, converged=converged, seed=seed)
-    return Posterior(draws=draws, diagnostics=diag, warnings=tuple(warnings))
+    return Posterior(draws=draws, diagnostics=diag, warnings=tuple(warnings), amplitudes=amplitudes)
 
 
 def _run_chain(problem, start, rng: np.random.Generator):
@@ -259,23 +272,32 @@ def _run_chain(problem, start, rng: np.random.Generator):
 
 
 def _with_mechanics(problem, noise: np.ndarray, inertia_prior: Prior, damping_prior: Prior,
-                    rng: np.random.Generator) -> tuple[np.ndarray, list[str]]:
-    """One draw of (m, b) from its Gaussian conditional per kept noise state, resampled by the
-    priors' weights.
+                    rng: np.random.Generator, given=None) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """One draw of the coefficients (m, b, amplitudes) from their Gaussian conditional per kept
+    noise state, resampled by the priors' weights on m and b (m and b the ``given`` ones in every
+    draw when given; the amplitudes' prior is flat).
 
     Returns
     -------
     draws : ndarray, shape (n, 6)
         (m, b, ln R, ln Q_s, ln Q_σ, ln Q_c).
+    amplitudes : ndarray, shape (n, k)
     warnings : list of str
     """
-    mech = np.empty((len(noise), 2))
+    coef = None
     for j, th in enumerate(noise):
         _, mean, cov = problem.conditional(th)
-        mech[j] = rng.multivariate_normal(mean, cov)
+        if coef is None:
+            coef = np.empty((len(noise), len(mean)))
+        coef[j] = rng.multivariate_normal(mean, cov)
+    if given is not None:
+        mech, amps = np.tile(np.asarray(given, dtype=float), (len(noise), 1)), coef
+        return np.hstack([mech, noise]), amps, []
+    mech, amps = coef[:, :2], coef[:, 2:]
     logw = log_prior(mech[:, 0], inertia_prior) + log_prior(mech[:, 1], damping_prior)
     if not np.any(np.isfinite(logw)):
-        return np.hstack([mech, noise]), ["no posterior draw of inertia and damping satisfies their priors (all ≤ 0?)"]
+        return (np.hstack([mech, noise]), amps,
+                ["no posterior draw of inertia and damping satisfies their priors (all ≤ 0?)"])
     w = np.exp(logw - np.max(logw))
     keep = rng.choice(len(mech), size=len(mech), p=w / w.sum())
-    return np.hstack([mech, noise])[keep], []
+    return np.hstack([mech, noise])[keep], amps[keep], []

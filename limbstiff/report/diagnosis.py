@@ -61,6 +61,30 @@ def _per_trial(fig, y, d):
     return y
 
 
+def _iv(iv) -> str:
+    return f"{iv.median:.4g} [{iv.lo:.4g}, {iv.hi:.4g}]"
+
+
+def _stiffness(fig, y, d):
+    """Per trial: the stiffness summary.csv reports, and with the chosen effects in the model."""
+    if not d.stiffness:
+        return y
+    y -= 0.01
+    fig.text(0.06, y, f"Stiffness per trial, N·m/rad (median, {100 * d.settings.ci_level:.0f} % interval)",
+             fontsize=11, weight="bold")
+    y -= 0.024
+    items = []
+    for s in d.stiffness[:MAX_TRIAL_LINES]:
+        line = f"{s.trial}: as analysed (summary.csv) {_iv(s.reported)}, {s.verdict}"
+        if s.with_effects is not None:
+            line += (f"; with {' + '.join(s.effects)} in the model {_iv(s.with_effects)}, {s.verdict_with_effects} "
+                     f"(limbstiff analyze --effect {' --effect '.join(s.effects)})")
+        items.append(line)
+        if s.note and s.note != "no effect chosen":
+            items.append(f"   {s.note}")
+    return _lines(fig, y, items, size=8.5, step=0.018)
+
+
 def _param_text(name: str, value, unit: str) -> str:
     """One parameter with its unit; delays in ms, dimensionless ones bare."""
     if value is None:
@@ -105,6 +129,7 @@ def _summary_page(fig, d):
         items = ["None: no candidate effect removes a significant and relevant share of the held-out gap; "
                  "the nominal model explains these data as far as the library can tell."]
     y = _lines(fig, y, items)
+    y = _stiffness(fig, y, d)
     y = _per_trial(fig, y, d)
     if d.ambiguities:
         y -= 0.01

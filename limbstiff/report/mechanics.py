@@ -10,6 +10,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..digest import shape_text
 from ..interval import Interval
 from ..statespace.noise import NoiseLevels
 from ..mechanics.posterior import prior_density
@@ -234,6 +235,7 @@ def _value_rows(result, params: list[_Parameter], draws: np.ndarray) -> list[tup
         rows.append(("  prior", _prior_text(_prior(result, p.name))))
     if all(p.free for p in params):
         rows.append(("correlation", f"{np.corrcoef(draws[:, 0], draws[:, 1])[0, 1]:+.2f}"))
+    rows += _effect_rows(result.identification.effects)
     rows.append(("draws", f"{draws.shape[0]}; black: median, shaded: {100 * result.ci_level:.0f} % interval; "
                           "contours hold 50 % and 90 % of the draws"))
     return rows
@@ -266,3 +268,14 @@ def _noise_levels(ax, draws, u) -> None:
     ax.invert_yaxis()
     ax.set_xlabel("ln level - its posterior median (0.69 = a factor of 2)")
     ax.set_title("Posterior of the Kalman model's noise levels", fontsize=FONT["body"], loc="left")
+
+
+def _effect_rows(effects) -> list[tuple[str, str]]:
+    """The effects put in the model (``--effect``): amplitude with its interval, and shape."""
+    rows = []
+    for e in effects:
+        iv = e.amplitude
+        rows.append((f"{e.name} {e.amplitude_name}", f"{fmt(iv.median, e.unit)} [{fmt(iv.lo)}, {fmt(iv.hi)}] "
+                                                     "(in the model)"))
+        rows.append(("  shape", shape_text(e.shape) or "none"))
+    return rows

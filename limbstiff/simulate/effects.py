@@ -164,7 +164,7 @@ def drift(t: np.ndarray, rng: np.random.Generator, slope: float, random_walk: fl
     The random walk (intensity ``random_walk``, unit/√s) is drawn at knots ``knot_interval``
     s apart and joined by a cubic spline, so it has no content above ~1/(2·knot_interval) Hz.
     A draw, not a model to fit: the diagnosis fits drift as a B-spline with free coefficients
-    (``limbstiff.diagnosis.candidates``), which contains this one.
+    (``limbstiff.effects.candidates``), which contains this one.
 
     Returns
     -------

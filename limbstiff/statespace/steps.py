@@ -170,8 +170,14 @@ def model_steps(angle: np.ndarray, measured: np.ndarray, *, sample_period: float
 
 
 def mechanics_steps(angle, velocity, acceleration, torque, *, sample_period: float, decimation: int,
-                    motion_frequency: float, edge: int = 0) -> ModelSteps:
+                    motion_frequency: float, edge: int = 0, extra: np.ndarray | None = None,
+                    with_mechanics: bool = True, scale_from: np.ndarray | None = None) -> ModelSteps:
     """The steps with the channels (f, ÿ, ẏ), whose likelihood is a quadratic form in (1, −m, −b).
+
+    ``extra`` (k, n) appends channels whose coefficients are fitted too (an effect's torque per
+    unit amplitude); without ``with_mechanics`` the channels are (``torque``, extra…): m and b are
+    given and ``torque`` is already z = f − m·ÿ − b·ẏ (``scale_from``, default ``torque``, is the
+    recorded torque whose size sets the diffuse start).
 
     Long trials are taken on at most :data:`MAX_IDENTIFY_STEPS` filter steps, as
     :data:`IDENTIFY_BLOCKS` equal blocks spread over the trial (the filter restarts at each): m
@@ -190,9 +196,13 @@ def mechanics_steps(angle, velocity, acceleration, torque, *, sample_period: flo
         restart = np.zeros(len(idx), dtype=bool)
         restart[::size] = True
     y = np.ascontiguousarray(angle[idx], dtype=float)
-    chans = np.ascontiguousarray(np.vstack([torque[idx], acceleration[idx], velocity[idx]]), dtype=float)
+    rows = [torque[idx]] + ([acceleration[idx], velocity[idx]] if with_mechanics else [])
+    if extra is not None:
+        rows += list(np.atleast_2d(extra)[:, idx])
+    chans = np.ascontiguousarray(np.vstack(rows), dtype=float)
+    scale = chans[0] if scale_from is None else np.asarray(scale_from, dtype=float)[idx]
     return ModelSteps(index=idx, angle=y, channels=chans, slopes=initial_slopes(y, chans), increments=_increments(y),
-                      deflection=g, initial_cov=initial_cov(y, chans[0]), step=step, restart=restart)
+                      deflection=g, initial_cov=initial_cov(y, scale), step=step, restart=restart)
 
 
 def channel_steps(angle: np.ndarray, channels: np.ndarray, *, scale_from: np.ndarray, step: float,

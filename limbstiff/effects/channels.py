@@ -1,4 +1,4 @@
-"""The signals of one trial as the diagnosis sees them: the analysis's own filtered signals.
+"""The signals of one trial as the effects see them: the analysis's own filtered signals.
 
 A :class:`Channels` holds the trial's :class:`~limbstiff.filtered.Filtered` signals (the same
 object the stiffness analysis estimated from: no second filtering), the angle, its first two
@@ -42,9 +42,9 @@ class Channels:
     mechanics : str
         ``"given"`` (protocol or command line), ``"identified"`` (from this trial) or
         ``"none"`` (direct variant).
-    stiffness : ndarray, shape (n,), N·m/rad
-        The stiffness course the analysis estimated.
-    observable : ndarray of bool, shape (n,)
+    stiffness : ndarray, shape (n,), N·m/rad, or None
+        The stiffness course the analysis estimated (None before it: :meth:`before_analysis`).
+    observable : ndarray of bool, shape (n,), or None
     noise : NoiseLevels or None
         The Kalman model's noise levels the analysis fitted (None for an observer estimator).
     """
@@ -61,8 +61,8 @@ class Channels:
     inertia: float
     damping: float
     mechanics: str
-    stiffness: np.ndarray
-    observable: np.ndarray
+    stiffness: np.ndarray | None = None
+    observable: np.ndarray | None = None
     noise: NoiseLevels | None = None
 
     @property
@@ -184,6 +184,16 @@ class Channels:
     @property
     def n_nuisance(self) -> int:
         return 4 if self.identified else 2
+
+
+    @classmethod
+    def before_analysis(cls, trial: Trial, filtered: Filtered) -> "Channels":
+        """The channels an analysis puts effects in its model from: the filtered signals of an
+        external-torque trial, m and b fitted with the effects (no course yet)."""
+        return cls(name=trial.name, time=np.asarray(trial.time, float), filtered=filtered, angle=filtered.angle,
+                   velocity=filtered.velocity, acceleration=filtered.acceleration, torque=filtered.torque,
+                   raw_angle=np.asarray(trial.angle, float), raw_torque=np.asarray(trial.torque, float),
+                   inertia=0.0, damping=0.0, mechanics="identified")
 
 
 def channels_from(trial: Trial, result) -> Channels:

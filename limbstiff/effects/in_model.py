@@ -1,0 +1,251 @@
+"""Named torque effects in the analysis's model: shape profiled, amplitude identified with m and b.
+
+``limbstiff analyze --effect reflex`` (or the protocol's ``effects``) puts an effect of the library
+(:data:`~limbstiff.effects.candidates.CANDIDATES`) in the model the stiffness is estimated with:
+f = m·ÿ + b·ẏ + a·φ(shape) + s. Its shape (a reflex's delay, direction and activation) is
+chosen on the effect's own grid by the Kalman model's marginal likelihood at the noise levels of
+the model without it (:func:`profile_effect`); its amplitude a is then a linear coefficient
+identified with m and b, its posterior drawn with theirs
+(:func:`~limbstiff.mechanics.identification.identify_mechanics`) and carried into the stiffness's
+band. Only torque effects can be put in the model: a corrected channel or an offset of m or b
+changes what the model is fitted to, not what it contains.
+
+The same profile, run on every analysis without effects, is the probe behind the ``reflex``
+check (:func:`probe_effect`): how far m, b and the stiffness would move with the effect in the
+model. Pure numpy/scipy: no I/O.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ..checks.reflex import MechanicsMove, ReflexShift
+from ..errors import LimbstiffError, TrialError
+from ..filtered import Filtered
+from ..mechanics.effect_terms import EffectTerms, without_effects
+from ..mechanics.identification import IDENTIFY_PERIODS, Identification
+from ..mechanics.least_squares import least_squares
+from ..mechanics.likelihood import MechanicsProblem, kalman_mechanics, robust_covariance
+from ..protocol import Protocol
+from ..statespace.noise import NoiseLevels
+from ..statespace.steps import kalman_decimation
+from ..trial import Trial
+from .candidates import CANDIDATES
+from .channels import Channels
+from .kinds import Scales, TorqueEffect
+
+#: The effects an analysis can hold in its model: the library's torque effects.
+IN_MODEL = tuple(name for name, e in CANDIDATES.items() if isinstance(e, TorqueEffect))
+
+
+@dataclass(frozen=True)
+class ShapeProfile:
+    """One effect at the shape that raises the model's marginal likelihood most.
+
+    Parameters
+    ----------
+    name : str
+    shape : Mapping
+        The chosen shape parameters.
+    column : ndarray, shape (n,)
+        Its torque per unit amplitude, low-passed like the torque, N·m per unit.
+    loglik_gain : float
+        Log marginal likelihood gained over the model without it, at fixed noise levels.
+    coefficients : ndarray, shape (p,)
+        Posterior mean of the model's coefficients with it: (m, b, amplitude), or the amplitude
+        alone when m and b are given.
+    covariance : ndarray, shape (p, p)
+        Their sandwich covariance (robust to residuals that are not white).
+    shapes_tried : int
+    """
+
+    name: str
+    shape: Mapping
+    column: np.ndarray
+    loglik_gain: float
+    coefficients: np.ndarray
+    covariance: np.ndarray
+    shapes_tried: int
+
+    @property
+    def amplitude_z(self) -> float:
+        """The amplitude over its (sandwich) standard error."""
+        sd = float(np.sqrt(max(self.covariance[-1, -1], 0.0)))
+        return float(self.coefficients[-1] / sd) if sd > 0 else float("inf")
+
+
+def _problem(filtered: Filtered, given, extra=None) -> MechanicsProblem:
+    guess = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
+                          sample_period=filtered.sample_period, window=IDENTIFY_PERIODS / filtered.motion_hz)
+    if given is not None:
+        guess = dataclasses.replace(guess, inertia=given[0], damping=given[1])
+    return MechanicsProblem.build(filtered.angle, filtered.velocity, filtered.acceleration, filtered.torque,
+                                  sample_period=filtered.sample_period,
+                                  decimation=kalman_decimation(filtered.sample_period, filtered.cutoff_hz),
+                                  motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge,
+                                  extra=extra, given=given), guess
+
+
+def profile_effect(ch: Channels, name: str, problem: MechanicsProblem, noise: NoiseLevels) -> ShapeProfile:
+    """The shape of effect ``name`` on its grid that raises the marginal likelihood of ``problem``
+    most at the noise levels ``noise`` (the coefficients of ``problem`` integrated out).
+
+    Parameters
+    ----------
+    ch : Channels
+        The trial's filtered signals (:meth:`Channels.before_analysis`).
+    name : str
+        One of :data:`IN_MODEL`.
+    problem : MechanicsProblem
+        The model without it (with the effects chosen before it).
+    noise : NoiseLevels
+        The noise levels the shapes are compared at.
+
+    Returns
+    -------
+    ShapeProfile
+    """
+    effect = CANDIDATES[name]
+    logs = noise.logs()
+    base = problem.conditional(logs)[0]
+    idx = problem.steps.index
+    best = None
+    shapes = effect.grid(Scales.of([ch]))
+    for shape in shapes:
+        column = effect.evaluate(ch, shape).regressors[0]
+        trial_problem = dataclasses.replace(problem, steps=problem.steps.with_channels(column[idx]))
+        loglik = trial_problem.conditional(logs)[0]
+        if np.isfinite(loglik) and (best is None or loglik > best[0]):
+            best = (loglik, shape, column, trial_problem)
+    if best is None:
+        raise LimbstiffError(f"the {name} could not be fitted at any shape of its grid")
+    loglik, shape, column, with_it = best
+    mean = with_it.conditional(logs)[1]
+    robust = robust_covariance(with_it, logs, mean, motion_frequency=ch.motion_hz)
+    return ShapeProfile(name, dict(shape), column, float(loglik - base), mean, robust.sandwich, len(shapes))
+
+
+def effect_terms(trial: Trial, filtered: Filtered, names: Sequence[str], *,
+                 given: tuple[float, float] | None = None) -> EffectTerms:
+    """The effects ``names`` at their profiled shapes, one after the other (each profiled with
+    those before it in the model), at the maximum-likelihood noise levels of the model without them.
+
+    Parameters
+    ----------
+    trial : Trial
+        External-torque trial (the raw channels).
+    filtered : Filtered
+        Its filtered signals.
+    names : sequence of str
+        Effects of :data:`IN_MODEL`.
+    given : (float, float), optional
+        m (kg·m²) and b (N·m·s/rad) when they are given.
+
+    Returns
+    -------
+    EffectTerms
+    """
+    ch = Channels.before_analysis(trial, filtered)
+    problem, guess = _problem(filtered, given)
+    noise = kalman_mechanics(problem, guess=guess).noise
+    chosen = []
+    for name in names:
+        found = profile_effect(ch, name, problem, noise)
+        chosen.append(found)
+        problem = dataclasses.replace(problem, steps=problem.steps.with_channels(found.column[problem.steps.index]))
+    return EffectTerms(names=tuple(p.name for p in chosen), shapes=tuple(p.shape for p in chosen),
+                       amplitude_names=tuple(CANDIDATES[p.name].amplitudes[0] for p in chosen),
+                       units=tuple(CANDIDATES[p.name].units.get(CANDIDATES[p.name].amplitudes[0], "1")
+                                   for p in chosen),
+                       columns=np.vstack([p.column for p in chosen]),
+                       loglik_gains=tuple(p.loglik_gain for p in chosen))
+
+
+def probe_effect(trial: Trial, filtered: Filtered, name: str, *, noise: NoiseLevels,
+                 given: tuple[float, float] | None = None) -> ShapeProfile:
+    """Effect ``name`` profiled against the model an analysis fitted without it (its noise levels
+    ``noise``; ``given`` m and b when they were given): what the ``reflex`` check reads."""
+    problem, _ = _problem(filtered, given)
+    return profile_effect(Channels.before_analysis(trial, filtered), name, problem, noise)
+
+
+def reflex_shift(probe: ShapeProfile, *, sensitivity: np.ndarray, coefficients: np.ndarray, intervals,
+                 stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, informed: np.ndarray) -> ReflexShift:
+    """What the probed effect would change, for the ``reflex`` check.
+
+    Parameters
+    ----------
+    probe : ShapeProfile
+        :func:`probe_effect`'s outcome.
+    sensitivity : ndarray, shape (3, n)
+        ∂σ̂/∂m, ∂σ̂/∂b and ∂σ̂/∂a for the probe's column (the estimate is affine in them).
+    coefficients : ndarray, shape (2,)
+        The analysis's m and b.
+    intervals : (Interval, Interval) or None
+        Their intervals when identified (None when given: they do not move).
+    stiffness, lo, hi : ndarray, shape (n,)
+        The analysis's stiffness and band, N·m/rad.
+    informed : ndarray of bool, shape (n,)
+
+    Returns
+    -------
+    ReflexShift
+    """
+    coef = np.asarray(probe.coefficients, dtype=float)
+    delta = np.concatenate([coef[:2] - coefficients if intervals is not None else np.zeros(2), coef[-1:]])
+    if intervals is not None:
+        delta[:2] = [0.0 if iv.is_fixed else d for iv, d in zip(intervals, delta[:2])]
+    change = delta @ sensitivity[:3]
+    where = informed if np.any(informed) else np.ones(len(stiffness), dtype=bool)
+    centre = float(np.median(stiffness[where]))
+    relative = float(np.median(change[where])) / centre if centre else float("nan")
+    band = float(np.median((hi - lo)[where])) / 2 / abs(centre) if centre else float("nan")
+    moved = []
+    if intervals is not None:
+        moved = [MechanicsMove(name, iv.median, float(new), not iv.lo <= new <= iv.hi)
+                 for name, new, iv in zip(("inertia", "damping"), coef[:2], intervals) if not iv.is_fixed]
+    sh = probe.shape
+    fa = sh.get("activation_hz")
+    words = (f"delay {1000 * sh['delay']:.0f} ms, stretch towards {'positive' if sh['direction'] > 0 else 'negative'} "
+             f"angles, gain {coef[-1]:.3g}" + ("" if fa is None else f", activation corner {fa:.2g} Hz"))
+    return ReflexShift(amplitude_z=probe.amplitude_z, shapes_tried=probe.shapes_tried, stiffness=relative,
+                       band=band, mechanics=tuple(moved), description=words)
+
+
+def terms_for(trial: Trial, filtered: Filtered, protocol: Protocol, *, where: str) -> EffectTerms | None:
+    """The protocol's effects at the shapes the data choose (None without effects)."""
+    if not protocol.effects:
+        return None
+    if filtered.variant != "external":
+        raise TrialError(where, "effects in the model (--effect) are identified with inertia and damping, from the "
+                                "external torque; this trial has only the elastic torque (direct variant)")
+    if protocol.estimator != "kalman":
+        raise TrialError(where, "effects in the model (--effect) are estimated by the kalman estimator only: run "
+                                f"with --estimator kalman instead of {protocol.estimator}")
+    given = (protocol.inertia, protocol.damping) if None not in (protocol.inertia, protocol.damping) else None
+    return effect_terms(trial, filtered, protocol.effects, given=given)
+
+
+def filtered_without(filtered: Filtered, terms: EffectTerms, amplitudes: np.ndarray) -> Filtered:
+    """The filtered signals with the effects' torques at ``amplitudes`` (k,) taken off the torque
+    (and its rate): what m, b and the spring are left to explain (an analysis's ``filtered`` then)."""
+    rate = amplitudes @ np.gradient(terms.columns, filtered.sample_period, axis=1)
+    return dataclasses.replace(filtered, torque=without_effects(filtered.torque, terms, amplitudes),
+                               torque_rate=filtered.torque_rate - rate)
+
+
+def reflex_probe(trial: Trial, filtered: Filtered, protocol: Protocol, ident: Identification | None,
+                 noise: NoiseLevels | None) -> ShapeProfile | None:
+    """The library's reflex profiled against the analysis's model (:func:`probe_effect`), for the
+    ``reflex`` check: external variant, Kalman estimator, no effects in the model."""
+    if ident is None or protocol.effects or protocol.estimator != "kalman" or noise is None:
+        return None
+    given = (ident.inertia.median, ident.damping.median) if ident.given else None
+    try:
+        return probe_effect(trial, filtered, "reflex", noise=noise, given=given)
+    except LimbstiffError:
+        return None
