@@ -151,7 +151,7 @@ def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.n
     if degree < 0 or np.ptp(y) == 0:
         coef = np.array([float(np.mean(sigma)) if len(near) else 0.0])
     else:
-        coef = np.polyfit(y, sigma, degree)
+        coef = _polyfit(y, sigma, degree)
     elastic = _clipped_antiderivative(coef, *((y.min(), y.max()) if len(near) else (0.0, 0.0)))
     gap = angle[a:b]
     forward = smoothed[a - 1, 0] + elastic(gap) - elastic(angle[a - 1]) if a > 0 else None
@@ -160,6 +160,17 @@ def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.n
         return forward if backward is None else backward
     w = (np.arange(length) + 1.0) / (length + 1.0)
     return (1.0 - w) * forward + w * backward
+
+
+def _polyfit(y: np.ndarray, sigma: np.ndarray, degree: int) -> np.ndarray:
+    """Least-squares polynomial of σ on y (highest power first), its degree lowered until the
+    angles determine it (an encoder's few distinct steps beside a short gap do not determine a
+    quadratic: numpy then warns and returns an arbitrary one)."""
+    while True:
+        coef, _, rank, _, _ = np.polyfit(y, sigma, degree, full=True)
+        if rank > degree or degree == 0:
+            return coef
+        degree -= 1
 
 
 def _clipped_antiderivative(coef: np.ndarray, lo: float, hi: float):
