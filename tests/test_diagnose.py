@@ -282,6 +282,13 @@ def test_identified_mechanics_are_fitted_with_the_effects():
     fitted = c.mechanics[trial.name]
     # the simulator's own m and b: identified within 10 % once the reflex is in the model
     assert fitted.inertia == pytest.approx(m, rel=0.1) and fitted.damping == pytest.approx(b, rel=0.1)
+    # the stiffness summary.csv reports, and the analysis's with the reflex in the model, each with
+    # its interval: the latter within 10 % of the simulator's (the tolerance)
+    (row,) = d.stiffness
+    assert row.effects == ("reflex",) and row.reported.lo <= row.reported.median <= row.reported.hi
+    assert row.with_effects.median == pytest.approx(np.median(trial.stiffness_true), rel=0.1)
+    assert row.with_effects.lo < row.with_effects.median < row.with_effects.hi
+    assert row.damping_with_effects.median == pytest.approx(b, rel=0.1)
 
 
 @pytest.mark.parametrize("joint,seed", [("elbow", 31), ("ankle", 32)])
@@ -319,6 +326,9 @@ def test_cli_writes_the_contract(tmp_path):
     assert (out / "diagnosis.pdf").read_bytes()[:4] == b"%PDF"
     # one trial: its own selection is the diagnosis, so no per-trial block and nothing to disagree with
     assert data["per_trial"] == [] and data["disagreements"] == []
+    (row,) = data["stiffness"]
+    assert {"trial", "reported", "verdict", "effects", "with_effects", "verdict_with_effects", "note"} <= set(row)
+    assert row["effects"] == ["reflex"] and {"median", "lo", "hi"} <= set(row["with_effects"])
     assert "disagree" not in res.output
 
 
