@@ -41,15 +41,19 @@ _DEG = math.pi / 180.0
 UNITS: Mapping[str, Unit] = MappingProxyType({
     # time
     "s": Unit("time", 1.0), "ms": Unit("time", 1e-3), "us": Unit("time", 1e-6),
+    "sec": Unit("time", 1.0), "µs": Unit("time", 1e-6), "μs": Unit("time", 1e-6),
     # angle
     "rad": Unit("angle", 1.0), "deg": Unit("angle", _DEG), "degree": Unit("angle", _DEG),
-    "degrees": Unit("angle", _DEG), "mrad": Unit("angle", 1e-3),
+    "degrees": Unit("angle", _DEG), "mrad": Unit("angle", 1e-3), "°": Unit("angle", _DEG),
     # length
     "m": Unit("length", 1.0), "mm": Unit("length", 1e-3), "cm": Unit("length", 1e-2),
     # torque
     "Nm": Unit("torque", 1.0), "N.m": Unit("torque", 1.0), "N·m": Unit("torque", 1.0),
     "N*m": Unit("torque", 1.0), "Nmm": Unit("torque", 1e-3), "N.mm": Unit("torque", 1e-3),
-    "N·mm": Unit("torque", 1e-3), "mNm": Unit("torque", 1e-3),
+    "N·mm": Unit("torque", 1e-3), "mNm": Unit("torque", 1e-3), "N m": Unit("torque", 1.0),
+    "N-m": Unit("torque", 1.0), "mN·m": Unit("torque", 1e-3), "mN.m": Unit("torque", 1e-3),
+    "Ncm": Unit("torque", 1e-2), "N·cm": Unit("torque", 1e-2), "N.cm": Unit("torque", 1e-2),
+    "kNm": Unit("torque", 1e3),
     # force
     "N": Unit("force", 1.0), "mN": Unit("force", 1e-3), "kN": Unit("force", 1e3),
     # stiffness
@@ -189,6 +193,34 @@ def unit_in_header(header: str) -> str | None:
     return None
 
 
+def split_header(header: str) -> tuple[str, str | None]:
+    """A header's name and the known unit written in it: ``"Zeit (ms)"`` → ``("Zeit", "ms")``,
+    ``"angle [deg]"`` → ``("angle", "deg")``, ``"torque_Nm"`` → ``("torque", "Nm")``,
+    ``"Moment"`` → ``("Moment", None)``.
+
+    The unit is found as :func:`unit_in_header` finds it (a trailing ``(unit)``, ``[unit]`` or
+    ``_unit`` of :data:`UNITS`); without one the name is the whole header, stripped.
+
+    Parameters
+    ----------
+    header : str
+
+    Returns
+    -------
+    (str, str or None)
+    """
+    header = header.strip()
+    match = _BRACKETED.search(header)
+    if match and match.group(1) in UNITS and header[:match.start()].strip():
+        return header[:match.start()].strip(), match.group(1)
+    parts = header.split("_")
+    for start in range(1, len(parts)):
+        candidate = "_".join(parts[start:])
+        if candidate in UNITS and "_".join(parts[:start]).strip():
+            return "_".join(parts[:start]).strip(), candidate
+    return header, None
+
+
 def to_si(values: np.ndarray, unit: str) -> np.ndarray:
     """Convert values from ``unit`` to SI units.
 
@@ -212,6 +244,21 @@ def to_si(values: np.ndarray, unit: str) -> np.ndarray:
     factor = UNITS[unit].factor
     values = np.asarray(values, dtype=float)
     return values if factor == 1.0 else values * factor
+
+
+def canonical_unit(unit: str) -> str:
+    """The table's first spelling of a unit (``"°"`` → ``"deg"``, ``"N·m"`` → ``"Nm"``).
+
+    Parameters
+    ----------
+    unit : str
+        A key of :data:`UNITS`.
+
+    Returns
+    -------
+    str
+    """
+    return next(name for name in UNITS if same_unit(name, unit))
 
 
 def same_unit(a: str, b: str) -> bool:

@@ -1,5 +1,9 @@
 """Files as labs write them (issue 15): logger files with gaps, Windows exports, unmapped columns."""
 
+import re
+import tomllib
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -116,6 +120,112 @@ def test_unrecognised_headers_get_a_ready_to_paste_protocol(tmp_path):
     assert "\n" not in message and "a protocol can map them" in message
     line = message.split("the line: ")[1].split("; check each unit")[0]
     columns = tomllib.loads(line)["columns"]
-    assert columns["angle"] == {"header": "Winkel (deg)", "unit": "deg"}
-    assert columns["torque"] == {"header": "Moment (Nm)", "unit": "Nm"}
-    assert columns["time"]["header"] == "Zeit"
+    # the header by its name (the protocol finds 'Winkel (deg)' by it), the unit read from it
+    assert columns["angle"] == {"header": "Winkel", "unit": "deg"}
+    assert columns["torque"] == {"header": "Moment", "unit": "Nm"}
+    assert columns["time"] == {"header": "Zeit", "unit": "?"}     # no unit in the file: the user's to say
+
+
+# ---------------------------------------------------------------- headers with units (issue 35)
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def _readme_lab_example():
+    """The README's "My lab's columns" protocol (TOML) and the export it shows, as written there."""
+    text = README.read_text(encoding="utf-8")
+    section = text.split("## My lab's columns", 1)[1].split("\n## ", 1)[0]
+    toml = re.search(r"```toml\n(.*?)```", section, re.S).group(1)
+    export = re.search(r"```text\n(.*?)```", section, re.S).group(1)
+    return tomllib.loads(toml), export
+
+
+def _lab_export(path, header: str, trial, decimal=","):
+    """``trial`` written under ``header`` (ms, degrees, N·m; semicolons, decimal commas)."""
+    rows = [f"{t * 1e3:.3f};{np.degrees(y):.9g};{f:.9g}" for t, y, f in zip(trial.time, trial.angle, trial.torque)]
+    text = header + "\n" + "\n".join(rows) + "\n"
+    path.write_text(text.replace(".", decimal) if decimal == "," else text, encoding="utf-8")
+    return path
+
+
+def test_the_readme_lab_protocol_reads_the_export_it_shows(tmp_path):
+    settings, export = _readme_lab_example()
+    header = export.splitlines()[0]
+    assert header == "Zeit (ms);Winkel (°);Moment (Nm)"
+    assert settings["columns"]["time"]["header"] == "Zeit"
+    protocol = protocol_from_dict(settings)
+    # the README's own rows, then a recording written the same way
+    shown = tmp_path / "shown.csv"
+    shown.write_text(export, encoding="utf-8")
+    with pytest.raises(TrialError, match="trial too short"):     # the columns and units were understood
+        read_trial(shown, protocol)
+    trial = multisine_trial(duration=4.0)
+    read = read_trial(_lab_export(tmp_path / "export.csv", header, trial), protocol)
+    np.testing.assert_allclose(read.time, trial.time, atol=1e-9)            # ms → s
+    np.testing.assert_allclose(read.angle, trial.angle, rtol=1e-7, atol=1e-12)   # ° → rad
+    np.testing.assert_allclose(read.torque, -trial.torque, rtol=1e-7, atol=1e-12)  # N·m, flipped
+    assert read.warnings == ()
+    # the same export in cp1252 (a Windows export's '°'), read with a warning
+    cp = tmp_path / "cp1252.csv"
+    cp.write_bytes((tmp_path / "export.csv").read_text(encoding="utf-8").encode("cp1252"))
+    np.testing.assert_array_equal(read_trial(cp, protocol).angle, read.angle)
+
+
+def test_a_header_unit_and_a_protocol_unit_that_disagree_are_one_error(tmp_path):
+    path = _lab_export(tmp_path / "export.csv", "Zeit (ms);Winkel (°);Moment (Nm)", multisine_trial(duration=4.0))
+    columns = {"time": {"header": "Zeit", "unit": "s"}, "angle": {"header": "Winkel", "unit": "deg"},
+               "torque": {"header": "Moment"}}
+    with pytest.raises(TrialError) as info:
+        read_trial(path, protocol_from_dict({"columns": columns}))
+    assert str(info.value) == f"{path}: column 'Zeit (ms)': the protocol says unit 's', its name says 'ms'"
+    # the same spelled otherwise agrees (° and deg, N·m and Nm); the whole header is found too
+    columns = {"time": {"header": "Zeit (ms)", "unit": "ms"}, "angle": {"header": "winkel", "unit": "°"},
+               "torque": {"header": "Moment", "unit": "N·m"}}
+    assert read_trial(path, protocol_from_dict({"columns": columns})).n_samples > 0
+    with pytest.raises(TrialError, match=r"column 'Winkel \(°\)': the protocol says unit 'rad', its name says '°'"):
+        read_trial(path, protocol_from_dict({"columns": {**columns, "angle": {"header": "Winkel", "unit": "rad"}}}))
+    with pytest.raises(TrialError, match=r"column 'Kraft' given by the protocol for torque/force is not in the file "
+                                         r"\(headers found: Zeit \(ms\), Winkel \(°\), Moment \(Nm\)\)"):
+        read_trial(path, protocol_from_dict({"columns": {**columns, "torque": {"header": "Kraft"}}}))
+
+
+@pytest.mark.parametrize("headers, factors", [
+    ("Time_s;angle [deg];torque_Nm", (1.0, np.pi / 180, 1.0)),
+    ("time (ms);Angle (°);Torque [N·mm]", (1e-3, np.pi / 180, 1e-3)),
+    ("Time [sec];angle_rad;torque (mNm)", (1.0, 1.0, 1e-3)),
+    ("time_us;angle (mrad);torque (N m)", (1e-6, 1e-3, 1.0)),
+])
+def test_headers_with_units_are_found_without_a_protocol(tmp_path, headers, factors):
+    trial = multisine_trial(duration=4.0)
+    path = tmp_path / "t.csv"
+    rows = [";".join(f"{v / k:.12g}" for v, k in zip(row, factors))
+            for row in zip(trial.time, trial.angle, trial.torque)]
+    path.write_text(headers + "\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    read = read_trial(path)
+    np.testing.assert_allclose(read.time, trial.time, atol=1e-9)
+    np.testing.assert_allclose(read.angle, trial.angle, rtol=1e-9, atol=1e-14)
+    np.testing.assert_allclose(read.torque, trial.torque, rtol=1e-9, atol=1e-14)
+
+
+def test_without_a_protocol_the_suggested_line_gives_the_units_in_the_headers(tmp_path):
+    path = _lab_export(tmp_path / "export.csv", "Zeit (ms);Winkel (°);Moment (Nm)", multisine_trial(duration=4.0))
+    with pytest.raises(TrialError) as info:
+        read_trial(path)
+    message = str(info.value)
+    line = message.split("the line: ")[1].split("; check each unit")[0]
+    assert 'unit = "?"' not in line
+    columns = tomllib.loads(line)["columns"]
+    assert columns == {"time": {"header": "Zeit", "unit": "ms"}, "angle": {"header": "Winkel", "unit": "deg"},
+                       "torque": {"header": "Moment", "unit": "Nm"}}
+    # and the line pasted into a protocol reads the file
+    read = read_trial(path, protocol_from_dict({"columns": columns}))
+    assert read.n_samples > 0
+
+
+def test_a_name_two_headers_share_is_refused(tmp_path):
+    path = tmp_path / "t.csv"
+    path.write_text("Zeit (ms);Winkel (deg);Moment (Nm);Moment (Nmm)\n0;1;2;3\n", encoding="utf-8")
+    columns = {"time": {"header": "Zeit"}, "angle": {"header": "Winkel"}, "torque": {"header": "Moment"}}
+    with pytest.raises(TrialError, match=r"column 'Moment' given by the protocol for torque/force matches both "
+                                         r"'Moment \(Nm\)' and 'Moment \(Nmm\)'; give the whole header"):
+        read_trial(path, protocol_from_dict({"columns": columns}))

@@ -12,7 +12,8 @@ from typing import NamedTuple, Sequence
 
 from ..errors import TrialError
 from ..units import (DIMENSION_KIND, FIELD_DIMENSIONS, FIELDS, STANDARD_QUANTITIES, UNITS,
-                    accepted_units, parse_standard_header, same_unit, unit_in_header)
+                    accepted_units, canonical_unit, parse_standard_header, same_unit, split_header,
+                    unit_in_header)
 
 _LABELS = {"time": "time", "angle": "angle/position", "torque": "torque/force",
            "elastic_torque": "elastic torque/force", "stiffness_true": "reference stiffness"}
@@ -51,9 +52,11 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
     unit from the protocol, else the unit row, else the header); every other quantity is
     looked for among the standard ``<quantity>_<unit>`` headers not claimed by the protocol —
     or, with a unit row, among plain quantity headers (``angle`` above ``deg``) — its unit and
-    scale still overridable by the protocol. The protocol's unit overrides the unit in a
-    header's name, but must agree with the unit row: two statements of the unit inside the
-    file, or a protocol contradicting the file's unit row, are an error.
+    scale still overridable by the protocol. A protocol's ``header`` names a column by its
+    whole header or by its name without the unit (``Zeit`` for ``Zeit (ms)``), and the unit it
+    gives such a column must agree with the unit in the header and with the unit row. For a
+    standard column the protocol does not name, its unit overrides the one in the header (a file
+    whose ``angle_rad`` holds degrees), but must still agree with the unit row.
 
     Parameters
     ----------
@@ -81,19 +84,21 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
         A missing column, an unknown or mismatched unit, two columns for one quantity.
     """
     mapped = dict(protocol.columns) if protocol is not None else {}
-    claimed = {spec.header.strip() for spec in mapped.values() if spec.header is not None}
     found = ", ".join(h for h in headers if h) or "none"
     row = list(units or ())
     row += [None] * (len(headers) - len(row))
     file = _Listing(where, noun, list(headers), row,
                     f"{'headers' if noun == 'column' else noun + 's'} found: {found}")
+    located = {field: _locate(file, field, spec.header) for field, spec in mapped.items()
+               if spec.header is not None}
+    claimed = {headers[index] for index in located.values()}
     standard = _standard_headers(where, headers, row, claimed, noun)
     covered = _covered(mapped)
     columns: dict[str, ColumnSpec] = {}
     for field in FIELDS:
         spec = mapped.get(field)
         if spec is not None and spec.header is not None:
-            columns[field] = _mapped_column(file, field, spec, columns)
+            columns[field] = _mapped_column(file, field, spec, located[field], columns)
             continue
         if field in covered:
             continue
@@ -137,7 +142,35 @@ class _Listing(NamedTuple):
     found: str
 
 
-def _mapped_column(file: _Listing, field: str, spec, columns: dict[str, ColumnSpec]) -> ColumnSpec:
+def _locate(file: _Listing, field: str, given: str) -> int:
+    """The index of the header the protocol names for ``field``: the header itself, else the one
+    header whose name without its unit is ``given`` (``Zeit`` finds ``Zeit (ms)``, ``Zeit_ms``;
+    the case of the letters counts only when two headers differ by it alone).
+
+    Raises
+    ------
+    TrialError
+        No such header, or two headers of that name.
+    """
+    given = given.strip()
+    if given in file.headers:
+        return file.headers.index(given)
+    names = [split_header(h)[0] for h in file.headers]
+    matches = [i for i, name in enumerate(names) if name == given]
+    if not matches:
+        matches = [i for i, name in enumerate(names) if name.casefold() == given.casefold()]
+    if len(matches) > 1:
+        both = " and ".join(f"'{file.headers[i]}'" for i in matches[:2])
+        raise TrialError(file.where, f"{file.noun} '{given}' given by the protocol for {_LABELS[field]} "
+                                     f"matches both {both}; give the whole header in the protocol")
+    if not matches:
+        raise TrialError(file.where, f"{file.noun} '{given}' given by the protocol for {_LABELS[field]} "
+                                     f"is not in the file ({file.found})")
+    return matches[0]
+
+
+def _mapped_column(file: _Listing, field: str, spec, index: int,
+                   columns: dict[str, ColumnSpec]) -> ColumnSpec:
     """The column the protocol names for ``field``, its unit checked against the file's.
 
     Parameters
@@ -147,16 +180,15 @@ def _mapped_column(file: _Listing, field: str, spec, columns: dict[str, ColumnSp
         Trial field.
     spec : protocol column spec
         With a ``header``; ``unit`` and ``scale`` as the protocol gives them.
+    index : int
+        Where that header is (:func:`_locate`).
     columns : dict of str to ColumnSpec
         The fields resolved so far, to refuse one column mapped to two quantities.
     """
     where, noun, row, label = file.where, file.noun, file.row, _LABELS[field]
-    header = spec.header.strip()
-    if header not in file.headers:
-        raise TrialError(where, f"{noun} '{header}' given by the protocol for {label} is not "
-                                f"in the file ({file.found})")
-    index = file.headers.index(header)
+    header = file.headers[index]
     named = unit_in_header(header)
+    _agree(where, noun, header, ("the protocol", spec.unit), ("its name", named))
     _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", row[index]))
     _agree(where, noun, header, ("its name", named), ("the unit row", row[index]))
     unit = spec.unit or row[index] or named
@@ -242,8 +274,12 @@ def _protocol_hint(file: _Listing, columns: dict[str, ColumnSpec]) -> str:
                       if h and (h.strip().lower().replace("_", " ").split() or [""])[0].strip("([") in words), None)
         if index is None:
             continue
-        header = file.headers[index]
-        unit = file.row[index] or unit_in_header(header) or "?"
+        name, named = split_header(file.headers[index])
+        unit = file.row[index] or named
+        unit = canonical_unit(unit) if unit in UNITS else (unit or "?")
+        if sum(split_header(h)[0] == name for h in file.headers) > 1:
+            name = file.headers[index].strip()       # two headers of that name: the whole one
+        header = name.replace("\\", "\\\\").replace('"', '\\"')
         entries.append(f'{field} = {{ header = "{header}", unit = "{unit}" }}')
     if not entries:
         return ""
