@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pandas as pd
 from click.testing import CliRunner
@@ -70,15 +71,17 @@ def test_resume_redoes_a_changed_input_only_with_overwrite(trial_file, tmp_path)
     out = tmp_path / "out"
     assert run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1).exit_code == 0
     trial_file("t1", folder=folder, seed=7)                    # same name, new content
+    table = (out / "summary.csv").read_bytes()
     res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume")
-    assert res.exit_code == 1
-    assert "t1.csv: outputs in" in res.output and "another input or other settings" in res.output
+    assert res.exit_code == 2 and res.output.strip().splitlines() == [
+        f"limbstiff: error: outputs in {out} were made from another input (t1): use --overwrite or another --out"]
+    assert (out / "summary.csv").read_bytes() == table              # stopped before touching anything
     res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume", "--overwrite")
     assert res.exit_code == 0 and "(1 up to date, skipped; --overwrite to redo)" in res.output
     assert json.loads((out / "t1" / "summary.json").read_text())["metadata"]["seed"] == "7"
     # other settings are another run: a changed seed is not "up to date"
     res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume", "--seed", 3)
-    assert res.exit_code == 1 and res.output.count("another input or other settings") == 2
+    assert res.exit_code == 2 and "were made with other settings" in res.output
 
 
 def test_parallel_output_is_identical_to_serial(trial_file, tmp_path):
@@ -210,3 +213,89 @@ def test_diagnose_checks_its_output_folder_first(trial_file, tmp_path):
     blocker.write_text("x")
     res = run("diagnose", trial_file("t1"), "--out", blocker / "diag")
     assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1 and "--out" in res.output
+
+
+def test_another_seed_into_the_same_out_stops_before_touching_anything(trial_file, tmp_path):
+    # issue 35: a re-run with other settings used to rewrite summary.csv with every row `failed`
+    folder = _folder(trial_file, tmp_path, 2, duration=3.0)
+    out = tmp_path / "out"
+    assert run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1).exit_code == 0
+    table, before = (out / "summary.csv").read_bytes(), _stamps(out)
+    for other in (["--seed", 3], ["--seed", 3, "--resume"], ["--inertia", 0.1]):
+        res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, *other)
+        assert res.exit_code == 2 and "Traceback" not in res.output, res.output
+        assert res.output.strip().splitlines() == [
+            f"limbstiff: error: outputs in {out} were made with other settings: use --overwrite or another --out"]
+        assert (out / "summary.csv").read_bytes() == table and _stamps(out) == before
+    # the same settings again, with --resume: up to date, nothing redone
+    res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--resume")
+    assert res.exit_code == 0 and "(2 up to date, skipped; --overwrite to redo)" in res.output
+    assert _stamps(out) == before
+    # --overwrite runs the other settings
+    res = run("analyze", folder, "--out", out, "--no-pdf", "--jobs", 1, "--seed", 3, "--overwrite")
+    assert res.exit_code == 0, res.output
+    assert [json.loads((out / f"t{i}" / "summary.json").read_text())["seed"] for i in range(2)] == [3, 3]
+    table = pd.read_csv(out / "summary.csv")
+    assert list(table["trial"]) == ["t0", "t1"] and set(table["status"]) == {"ok"} and set(table["resumed"]) == {0}
+
+
+def test_a_report_this_run_writes_and_the_outputs_lack_is_refused_by_name(trial_file, tmp_path):
+    out = tmp_path / "out"
+    path = trial_file("t1", duration=3.0)
+    assert run("analyze", path, "--out", out, "--no-pdf").exit_code == 0
+    table = (out / "summary.csv").read_bytes()
+    res = run("analyze", path, "--out", out)
+    assert res.exit_code == 2 and res.output.strip().splitlines() == [
+        f"limbstiff: error: outputs in {out} lack report.pdf, which this run writes (t1): use --overwrite or another --out"]
+    assert (out / "summary.csv").read_bytes() == table and not (out / "t1" / "report.pdf").exists()
+
+
+def test_units_and_kind_in_the_outputs_and_a_batch_of_mixed_kinds_says_so(tmp_path):
+    # examples/ holds a rotational elbow and a translational exponential spring
+    from limbstiff.batch.table import SUMMARY_COLUMNS
+    examples = Path(__file__).parent.parent / "examples"
+    out = tmp_path / "out"
+    res = run("analyze", examples, tmp_path / "nope.csv", "--out", out, "--no-pdf", "--jobs", 1)
+    assert res.exit_code == 1 and "Traceback" not in res.output, res.output
+    lines = res.output.splitlines()
+    # the missing path is named on stderr with why, not only in summary.csv
+    assert f"limbstiff: error: {tmp_path / 'nope.csv'}: no such file or folder" in lines
+    warnings = [line for line in lines if line.startswith("limbstiff: warning:")]
+    assert len(warnings) == 1 and "mixes kinds" in warnings[0] and "rotational" in warnings[0]
+    assert "translational" in warnings[0] and "N/m" in warnings[0] and "N·m/rad" in warnings[0]
+    header = (out / "summary.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
+    # appended after the columns docs/interface.md had: their order is a contract
+    assert tuple(header[:len(SUMMARY_COLUMNS)]) == SUMMARY_COLUMNS
+    assert SUMMARY_COLUMNS[-4:] == ("kind", "stiffness_unit", "inertia_unit", "damping_unit")
+    assert SUMMARY_COLUMNS[SUMMARY_COLUMNS.index("kind") - 1] == "stiffness_torque_slope_hi"
+    assert all(h.startswith("meta.") for h in header[len(SUMMARY_COLUMNS):])
+    table = pd.read_csv(out / "summary.csv", keep_default_na=False).set_index("trial")
+    assert table.loc["elbow", ["kind", "stiffness_unit", "inertia_unit", "damping_unit"]].tolist() == [
+        "rotational", "N·m/rad", "kg·m²", "N·m·s/rad"]
+    assert table.loc["exp-spring", ["kind", "stiffness_unit", "inertia_unit", "damping_unit"]].tolist() == [
+        "translational", "N/m", "kg", "N·s/m"]
+    assert table.loc["nope", ["status", "kind", "stiffness_unit"]].tolist() == ["failed", "", ""]
+    for name, kind, unit in (("elbow", "rotational", "N·m/rad"), ("exp-spring", "translational", "N/m")):
+        summary = json.loads((out / name / "summary.json").read_text(encoding="utf-8"))
+        assert summary["kind"] == kind and summary["units"]["stiffness"] == unit
+
+
+def test_one_kind_no_warning_and_identify_rows_name_their_kind():
+    from limbstiff.batch.table import TrialRow, mixed_kinds, summary_row
+    units = {"angle": "m", "stiffness": "N/m", "inertia": "kg", "damping": "N·s/m"}
+    row = TrialRow.from_summary({"units": units})            # posterior.json names no kind
+    cells = summary_row(TrialOutcome("s", "s.csv", "ok", "", row))
+    assert (cells["kind"], cells["stiffness_unit"], cells["damping_unit"]) == ("translational", "N/m", "N·s/m")
+    rot = TrialRow.from_summary({"kind": "rotational", "units": {"stiffness": "N·m/rad"}})
+    same = [TrialOutcome(n, f"{n}.csv", "ok", "", rot) for n in ("a", "b")]
+    assert mixed_kinds(same + [_outcome("c", "failed", "c.csv: no motion")]) is None
+    assert "1 translational (s; N/m)" in mixed_kinds(same + [TrialOutcome("s", "s.csv", "ok", "", row)])
+
+
+def test_a_failed_trial_is_named_on_stderr_with_why(trial_file, tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,angle_rad,torque_Nm\n" + "".join(f"{i / 100},0.3,{i}\n" for i in range(200)))
+    res = run("analyze", bad, "--out", tmp_path / "out", "--no-pdf", "--jobs", 1)
+    assert res.exit_code == 1
+    failed = [line for line in res.output.splitlines() if "FAILED" in line]
+    assert len(failed) == 1 and "bad" in failed[0] and "bad.csv" in failed[0] and "no motion" in failed[0]

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Callable, Sequence
 
 from .discovery import NothingToDo, discover, output_names, writable_folder
 from .runner import BatchJob, TrialOutcome, run_jobs, run_one
-from .table import TrialRow, folder_outcomes, up_to_date, write_summary_csv
+from .table import TrialRow, folder_outcomes, mixed_kinds, outputs_state, up_to_date, write_summary_csv
 from ..errors import LimbstiffError
 from ..protocol import Protocol
 
@@ -74,11 +74,17 @@ class BatchReport:
         Output folder.
     notes : tuple of str
         Run-level remarks (stem collisions…).
+    missing : tuple of str
+        One line per path that matched nothing, with why (also a failed row of ``summary.csv``).
+    warnings : tuple of str
+        Run-level warnings (a table mixing rotational and translational trials).
     """
 
     outcomes: tuple[TrialOutcome[TrialRow], ...]
     out: Path
     notes: tuple[str, ...] = ()
+    missing: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
 
     @property
     def n_failed(self) -> int:
@@ -113,6 +119,42 @@ def _clear_or_refuse(job: BatchJob[JobOptions], marker: str) -> None:
         why = "were made from another input or other settings, or lack a file this run writes"
         raise LimbstiffError(f"{job.source}: outputs in {job.out} {why} (use --overwrite to replace them)")
     (job.at(job.out) / marker).unlink()
+
+
+def refuse_other_outputs(jobs: Sequence[BatchJob[JobOptions]], out: Path, *, marker: str,
+                         files: Sequence[str]) -> None:
+    """Stop a run, before it touches anything, that would have to replace complete outputs in
+    ``out`` without ``--overwrite``: made with other settings (seed, protocol, reference,
+    version), from another input, or lacking a file this run writes. Current outputs are kept
+    by the run itself (up to date, skipped).
+
+    Raises
+    ------
+    OutputExists
+        One line naming the folder and what to do.
+    """
+    from ..files.outputs import OutputExists
+
+    if not jobs or jobs[0].options.overwrite:
+        return
+    stale: dict[str, list[str]] = {}
+    for job in jobs:
+        state = outputs_state(job.out, source=job.source, run_sha256=job.options.run_sha256, files=files,
+                              marker=marker)
+        stale.setdefault(state, []).append(job.name)
+    what = "use --overwrite or another --out"
+    if "settings" in stale:
+        raise OutputExists(f"outputs in {out} were made with other settings: {what}")
+    if "input" in stale:
+        raise OutputExists(f"outputs in {out} were made from another input ({_names(stale['input'])}): {what}")
+    if "files" in stale:
+        lacking = [f for f in files if any(not (out / name / f).is_file() for name in stale["files"])]
+        raise OutputExists(f"outputs in {out} lack {', '.join(lacking)}, which this run writes "
+                           f"({_names(stale['files'])}): {what}")
+
+
+def _names(names: Sequence[str], shown: int = 3) -> str:
+    return ", ".join(names[:shown]) + (f" and {len(names) - shown} more" if len(names) > shown else "")
 
 
 def read_job_trial(job: BatchJob, protocol: Protocol):
@@ -163,24 +205,27 @@ def _run_trial(job: BatchJob[JobOptions], *, work: Callable[[BatchJob[JobOptions
     return outcome if outcome.row is None else dataclasses.replace(outcome, resumed=outcome.row.resumed)
 
 
-def _run(paths, work, options: JobOptions, *, out, jobs, executor, progress, marker: str) -> BatchReport:
+def _run(paths, work, options: JobOptions, *, out, jobs, executor, progress, marker: str,
+         writes: Sequence[str]) -> BatchReport:
     """Discover the trials, run ``work`` on each (one failure never stops the others), and keep
     ``summary.csv`` current after every finished trial, so an interrupted run leaves it true.
 
     ``summary.csv`` is the folder's table: besides this run's trials it keeps a row for every
     trial of an earlier run whose complete outputs (``marker`` written) are in the folder. A
-    path that matches nothing is a failed row; the output folder is checked before any trial.
+    path that matches nothing is a failed row; the output folder, and whether the run may write
+    its trials' outputs there (:func:`refuse_other_outputs`), are checked before any trial.
     """
     missing: list[tuple[str, str]] = []
     files = discover(paths, missing=missing)
     if not files:
         raise NothingToDo("; ".join(why for _, why in missing))
     out = writable_folder(out)
+    names, notes = output_names(files)
+    jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
+    refuse_other_outputs(jobs_list, out, marker=marker, files=writes)
     if executor is not None:
         from .cluster import check_shared_folder
         check_shared_folder(executor, out)      # workers write there: before any trial runs
-    names, notes = output_names(files)
-    jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
     lost = [TrialOutcome(Path(text).stem, text, "failed", why) for text, why in missing]
     # the folder's rows are read once; of this run's trials not yet finished, only whether their
     # marker is still there can change (it is removed while a trial is redone)
@@ -189,6 +234,11 @@ def _run(paths, work, options: JobOptions, *, out, jobs, executor, progress, mar
     finished: dict[str, TrialOutcome] = {}
 
     def table(current):
+        # a trial of this run that failed while its earlier complete outputs stayed keeps their row:
+        # the table never says less than what is on disk (the failure is on stderr)
+        before = {o.trial: o for o in earlier}
+        current = [before[o.trial] if o.status != "ok" and o.trial in before
+                   and (out / o.trial / marker).is_file() else o for o in current]
         done = {o.trial for o in current}
         kept = [o for o in earlier if o.trial not in done
                 and (o.trial not in pending or (out / o.trial / marker).is_file())]
@@ -202,8 +252,11 @@ def _run(paths, work, options: JobOptions, *, out, jobs, executor, progress, mar
 
     outcomes = run_jobs(jobs_list, functools.partial(_run_trial, work=work),
                         n_jobs=jobs, executor=executor, progress=record)
-    write_summary_csv(out / SUMMARY_CSV, table(outcomes))
-    return BatchReport(outcomes=tuple(outcomes + lost), out=out, notes=tuple(notes))
+    final = table(outcomes)
+    write_summary_csv(out / SUMMARY_CSV, final)
+    mixed = mixed_kinds(final)
+    return BatchReport(outcomes=tuple(outcomes + lost), out=out, notes=tuple(notes),
+                       missing=tuple(why for _, why in missing), warnings=(mixed,) if mixed else ())
 
 
 def _identify_and_write(job: BatchJob[JobOptions]) -> TrialRow:
@@ -243,7 +296,7 @@ def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     protocol = protocol or Protocol()
     options = JobOptions(protocol, seed, run_sha256=run_fingerprint(protocol, seed=seed), overwrite=overwrite)
     return _run(paths, _identify_and_write, options, out=out, jobs=jobs, executor=executor, progress=progress,
-                marker="posterior.json")
+                marker="posterior.json", writes=("draws.csv",))
 
 
 def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",
@@ -295,8 +348,9 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     protocol = protocol or Protocol()
     options = JobOptions(protocol, seed, run_sha256=run_fingerprint(protocol, seed=seed, reference=reference),
                          overwrite=overwrite, resume=resume, pdf=pdf, reference=reference)
+    from ..files.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON
     report = _run(paths, _analyse_and_write, options, out=out, jobs=jobs, executor=executor, progress=progress,
-                  marker="summary.json")
+                  marker="summary.json", writes=(STIFFNESS_CSV, SUMMARY_JSON) + ((REPORT_PDF,) if pdf else ()))
     if pdf:
         report = _overview(report, protocol, sort_by)
     return report

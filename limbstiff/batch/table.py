@@ -24,7 +24,8 @@ SUMMARY_COLUMNS = ("trial", "status", "verdict", "error", "source", "variant", "
                    "stiffness_hi", "inertia_median", "damping_median", "observable_fraction", "resumed",
                    "output", "inertia_lo", "inertia_hi", "damping_lo", "damping_hi", "stiffness_at_mean_torque",
                    "stiffness_at_mean_torque_lo", "stiffness_at_mean_torque_hi", "stiffness_torque_slope",
-                   "stiffness_torque_slope_lo", "stiffness_torque_slope_hi")
+                   "stiffness_torque_slope_lo", "stiffness_torque_slope_hi", "kind", "stiffness_unit", "inertia_unit",
+                   "damping_unit")
 #: Prefix of the ``summary.csv`` columns that carry each trial's metadata (``# key: value`` lines).
 METADATA_PREFIX = "meta."
 
@@ -77,6 +78,10 @@ class TrialRow:
         The trial's ``# key: value`` metadata.
     resumed : bool
         Its outputs were current and kept (``--resume``), not made again.
+    kind : str or None
+        ``rotational`` or ``translational``: which units its figures are in.
+    units : Mapping[str, str]
+        The SI units of its figures (``stiffness``, ``inertia``, ``damping``…), as its JSON gives them.
     """
 
     variant: str | None = None
@@ -90,19 +95,32 @@ class TrialRow:
     output: str | None = None
     metadata: Mapping[str, str] = field(default_factory=FrozenDict)
     resumed: bool = False
+    kind: str | None = None
+    units: Mapping[str, str] = field(default_factory=FrozenDict)
 
     @classmethod
     def from_summary(cls, summary: Mapping[str, Any], *, resumed: bool = False) -> "TrialRow":
         """The row of a trial's ``summary.json`` or ``posterior.json`` content (a key it lacks
         is a blank cell)."""
         level = _mapping(summary.get("trial_level"))
+        units = {str(k): str(v) for k, v in _mapping(summary.get("units")).items()}
         return cls(variant=summary.get("variant"), verdict=summary.get("verdict"),
                    stiffness=RowInterval.of(summary.get("stiffness")), inertia=RowInterval.of(summary.get("inertia")),
                    damping=RowInterval.of(summary.get("damping")),
                    stiffness_at_mean_torque=RowInterval.of(level.get("stiffness_at_mean_torque")),
                    stiffness_torque_slope=RowInterval.of(level.get("stiffness_torque_slope")),
                    observable_fraction=summary.get("observable_fraction"), output=summary.get("output"),
-                   metadata=FrozenDict(_mapping(summary.get("metadata"))), resumed=resumed)
+                   metadata=FrozenDict(_mapping(summary.get("metadata"))), resumed=resumed,
+                   kind=summary.get("kind") or _kind_of(units), units=FrozenDict(units))
+
+
+#: The length unit of each kind's displacement (``units.angle`` of the JSON outputs), to tell a
+#: ``posterior.json``'s kind, which it does not name.
+_KIND_BY_DISPLACEMENT = {"rad": "rotational", "m": "translational"}
+
+
+def _kind_of(units: Mapping[str, str]) -> str | None:
+    return _KIND_BY_DISPLACEMENT.get(units.get("angle", ""))
 
 
 def _mapping(value: Any) -> Mapping:
@@ -121,6 +139,7 @@ def summary_row(outcome: TrialOutcome[TrialRow]) -> dict:
         "resumed": int(outcome.resumed) if outcome.status == "ok" else "",
         "output": row.output,
         **_interval_columns(row),
+        "kind": row.kind, **{f"{q}_unit": row.units.get(q) for q in ("stiffness", "inertia", "damping")},
         **{METADATA_PREFIX + str(k): v for k, v in row.metadata.items()},
     }
 
@@ -174,6 +193,36 @@ def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: I
     return TrialRow.from_summary(summary, resumed=True)
 
 
+def outputs_state(directory: Path, *, source: Path, run_sha256: str, files: Iterable[str],
+                  marker: str = SUMMARY_JSON) -> str:
+    """What a trial's outputs in ``directory`` are to a run about to make them, read before it does.
+
+    Returns
+    -------
+    str
+        ``absent`` (no complete outputs: ``marker`` missing or unreadable), ``current`` (made from
+        ``source`` as it is, with ``run_sha256``, every file in ``files`` there), ``settings`` (made
+        with another run fingerprint: settings, seed, reference or version), ``input`` (from
+        another content of ``source``) or ``files`` (lacking a file of ``files``).
+    """
+    from ..files.atomic import sha256_file
+
+    try:
+        summary = json.loads((Path(directory) / marker).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return "absent"
+    if not isinstance(summary, dict):
+        return "absent"
+    if summary.get("run_sha256") != run_sha256:
+        return "settings"
+    try:
+        if summary.get("source_sha256") != sha256_file(source):
+            return "input"
+    except OSError:
+        return "input"
+    return "current" if all((Path(directory) / f).is_file() for f in files) else "files"
+
+
 def folder_outcomes(out: Path, marker: str, *, exclude: set[str]) -> list[TrialOutcome[TrialRow]]:
     """The rows of trials of earlier runs kept in ``out``: every sub-folder whose ``marker``
     (``summary.json`` or ``posterior.json``, written last) is there and readable, read back from
@@ -192,3 +241,23 @@ def folder_outcomes(out: Path, marker: str, *, exclude: set[str]) -> list[TrialO
             rows.append(TrialOutcome(name, str(summary.get("source", "")), "ok", "",
                                      TrialRow.from_summary(summary, resumed=True), resumed=True))
     return rows
+
+
+def mixed_kinds(outcomes: Iterable[TrialOutcome[TrialRow]]) -> str | None:
+    """A one-line warning when the table holds trials of both kinds (their figures are in N·m/rad
+    and N/m: not to be averaged together), else None."""
+    outcomes = list(outcomes)
+    kinds: dict[str, list[str]] = {}
+    for o in outcomes:
+        if o.row is not None and o.row.kind:
+            kinds.setdefault(o.row.kind, []).append(o.trial)
+    if len(kinds) < 2:
+        return None
+    parts = []
+    for kind, trials in sorted(kinds.items()):
+        unit = next((o.row.units.get("stiffness") for o in outcomes if o.trial in trials and o.row is not None
+                     and o.row.units.get("stiffness")), "")
+        shown = ", ".join(trials[:3]) + (f" and {len(trials) - 3} more" if len(trials) > 3 else "")
+        parts.append(f"{len(trials)} {kind} ({shown}{'; ' + unit if unit else ''})")
+    return ("the batch mixes kinds of trial: " + " and ".join(parts)
+            + "; their figures are in different units, do not average them (summary.csv: kind, stiffness_unit)")

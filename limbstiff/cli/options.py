@@ -20,7 +20,9 @@ seed_option = click.option("--seed", type=int, default=0, show_default=True,
 
 jobs_option = click.option("--jobs", type=click.IntRange(min=1), default=None,
                            help="Trials run in parallel processes (default: number of cores).")
-overwrite_option = click.option("--overwrite", is_flag=True, help="Replace outputs that already exist.")
+overwrite_option = click.option("--overwrite", is_flag=True,
+                                help="Replace outputs that already exist (without it an existing output is never "
+                                     "replaced: exit status 2).")
 scheduler_option = click.option(
     "--scheduler", default=None, metavar="ADDRESS",
     help="Run the trials on the dask.distributed scheduler at ADDRESS (tcp://host:8786) instead of local "
@@ -29,7 +31,12 @@ scheduler_option = click.option(
 
 
 def finish(report):
-    """Say how the batch went and exit with docs/interface.md's status."""
+    """Say how the batch went and exit with docs/interface.md's status: paths that matched nothing
+    (one line each, with why), warnings, notes, then the tally."""
+    for why in getattr(report, "missing", ()):
+        click.echo(f"limbstiff: error: {why}", err=True)
+    for warning in getattr(report, "warnings", ()):
+        click.echo(f"limbstiff: warning: {warning}", err=True)
     for note in report.notes:
         click.echo(f"limbstiff: note: {note}", err=True)
     n = len(report.outcomes)
@@ -60,7 +67,8 @@ def fail(message: str, status: int = EXIT_USAGE):
 
 
 def reports_errors(func):
-    """Turn a :class:`LimbstiffError` raised by a command into a one-line error and exit 2."""
+    """Turn a :class:`LimbstiffError` raised by a command, or a file that cannot be written (an
+    :class:`OSError`), into a one-line error and exit 2."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
@@ -68,6 +76,9 @@ def reports_errors(func):
             return func(*args, **kwargs)
         except LimbstiffError as exc:
             fail(str(exc))
+        except OSError as exc:
+            where = f"{exc.filename}: " if exc.filename else ""
+            fail(f"{where}{exc.strerror or type(exc).__name__}; use another path")
         except KeyboardInterrupt:
             fail("interrupted", 130)
 
