@@ -105,3 +105,40 @@ def test_pairs_of_mixed_kinds_and_a_calibration_of_the_wrong_kind(tmp_path):
                                     "--out", str(tmp_path / "o")])
     assert res.exit_code == 1 and "the --reference calibration is rotational but the trial is translational" \
         in res.output
+
+
+def _pairs_file(tmp_path):
+    x = np.linspace(0.0, 0.02, 12)
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text("position_m,force_N\n" + "".join(f"{a},{2.0 * np.exp(40.0 * a)}\n" for a in x))
+    return pairs
+
+
+def _refused(res, path):
+    lines = res.output.strip().splitlines()
+    return (res.exit_code == 2 and len(lines) == 1 and "Traceback" not in res.output and str(path) in lines[0]
+            and lines[0].startswith("limbstiff: error: "))
+
+
+def test_calibrate_never_overwrites_without_overwrite(tmp_path):
+    pairs, out = _pairs_file(tmp_path), tmp_path / "cal.json"
+    out.write_text("{}")
+    res = CliRunner().invoke(main, ["calibrate", str(pairs), "--out", str(out)])
+    assert _refused(res, out) and "use --overwrite" in res.output and "another path" in res.output
+    assert out.read_text() == "{}"
+    res = CliRunner().invoke(main, ["calibrate", str(pairs), "--out", str(out), "--overwrite"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(out.read_text())["b"] == pytest.approx(40.0)
+
+
+@pytest.mark.parametrize("where", ["under-a-file", "missing-folder", "a-folder"])
+def test_calibrate_to_an_unwritable_path_is_one_line(tmp_path, where):
+    pairs = _pairs_file(tmp_path)
+    (tmp_path / "file.txt").write_text("x")
+    (tmp_path / "folder").mkdir()
+    out = {"under-a-file": tmp_path / "file.txt" / "out.json", "missing-folder": tmp_path / "no" / "out.json",
+           "a-folder": tmp_path / "folder"}[where]
+    for extra in ([], ["--overwrite"]):
+        res = CliRunner().invoke(main, ["calibrate", str(pairs), "--out", str(out), *extra])
+        assert _refused(res, out), res.output
+    assert not (tmp_path / "no").exists() and (tmp_path / "file.txt").read_text() == "x"

@@ -107,7 +107,7 @@ def test_outputs_are_not_overwritten_without_overwrite(trial_file, tmp_path):
     assert run("analyze", path, "--out", out, "--no-pdf").exit_code == 0
     before = (out / "t1" / "summary.json").read_text()
     res = run("analyze", path, "--out", out, "--no-pdf", "--inertia", 0.1, "--damping", 0.1)
-    assert res.exit_code == 1 and "use --overwrite" in res.output
+    assert res.exit_code == 2 and "use --overwrite" in res.output and len(res.output.strip().splitlines()) == 1
     assert (out / "t1" / "summary.json").read_text() == before
     res = run("analyze", path, "--out", out, "--no-pdf", "--inertia", 0.1, "--damping", 0.1, "--overwrite")
     assert res.exit_code == 0
@@ -221,4 +221,65 @@ def test_identify_writes_posterior_and_draws(tmp_path):
     assert res.exit_code == 0 and "1 up to date, skipped" in res.output
     assert (out / "elbow" / "posterior.json").stat().st_mtime_ns == stamp
     res = run("identify", path, "--out", out, "--seed", 6, "--jobs", 1)
-    assert res.exit_code == 1 and "another input or other settings" in res.output
+    assert res.exit_code == 2 and "were made with other settings: use --overwrite or another --out" in res.output
+    assert (out / "elbow" / "posterior.json").stat().st_mtime_ns == stamp
+    table = pd.read_csv(out / "summary.csv", keep_default_na=False)
+    assert table["status"].tolist() == ["ok"] and table["kind"].tolist() == ["rotational"]
+    assert table["inertia_unit"].tolist() == ["kg·m²"]
+
+
+def _refused(res, path):
+    """One line, exit 2, naming the file and what to do."""
+    lines = res.output.strip().splitlines()
+    return (res.exit_code == 2 and len(lines) == 1 and "Traceback" not in res.output and str(path) in lines[0]
+            and lines[0].startswith("limbstiff: error: "))
+
+
+def test_simulate_never_overwrites_without_overwrite(tmp_path):
+    path = tmp_path / "elbow.csv"
+    assert run("simulate", "elbow", "--set", "duration=2", "--out", path).exit_code == 0
+    before = path.read_bytes()
+    res = run("simulate", "elbow", "--set", "duration=2", "--seed", 4, "--out", path)
+    assert _refused(res, path) and "use --overwrite" in res.output and "another path" in res.output
+    assert path.read_bytes() == before
+    res = run("simulate", "elbow", "--set", "duration=2", "--seed", 4, "--out", path, "--overwrite")
+    assert res.exit_code == 0, res.output
+    assert path.read_bytes() != before and "seed: 4" in path.read_text()
+
+
+@pytest.mark.parametrize("where", ["under-a-file", "missing-folder", "a-folder"])
+def test_simulate_to_an_unwritable_path_is_one_line(tmp_path, where):
+    (tmp_path / "file.txt").write_text("x")
+    (tmp_path / "folder").mkdir()
+    path = {"under-a-file": tmp_path / "file.txt" / "out.csv", "missing-folder": tmp_path / "no" / "out.csv",
+            "a-folder": tmp_path / "folder"}[where]
+    for extra in ([], ["--overwrite"]):
+        res = run("simulate", "elbow", "--set", "duration=2", "--out", path, *extra)
+        assert _refused(res, path), res.output
+    assert not (tmp_path / "no").exists() and (tmp_path / "file.txt").read_text() == "x"
+
+
+def test_simulate_default_name_is_not_overwritten(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert run("simulate", "elbow", "--set", "duration=2").exit_code == 0
+    res = run("simulate", "elbow", "--set", "duration=2")
+    assert _refused(res, "elbow.csv")
+
+
+def test_diagnose_never_overwrites_without_overwrite(trial_file, tmp_path):
+    out = tmp_path / "diag"
+    out.mkdir()
+    (out / "diagnosis.json").write_text("{}")
+    res = run("diagnose", trial_file("t1"), "--out", out)
+    assert _refused(res, out) and "diagnosis.json" in res.output and "--overwrite" in res.output
+    assert (out / "diagnosis.json").read_text() == "{}"
+
+
+def test_an_unwritable_file_is_one_line_not_a_traceback(monkeypatch, tmp_path):
+    # a write that fails after the checks (a full disk, a race) is still one line, exit 2
+    import limbstiff.files
+    def denied(trial, path):
+        raise PermissionError(13, "Permission denied", str(path))
+    monkeypatch.setattr(limbstiff.files, "write_trial", denied)
+    res = run("simulate", "elbow", "--set", "duration=2", "--out", tmp_path / "x.csv")
+    assert _refused(res, tmp_path / "x.csv") and "Permission denied" in res.output

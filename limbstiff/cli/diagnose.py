@@ -7,8 +7,8 @@ import sys
 
 import click
 
-from .options import (fail, jobs_option, load_protocol_or_default, n_jobs, out_option, protocol_option,
-                      reports_errors, scheduler_option, seed_option)
+from .options import (fail, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
+                      protocol_option, reports_errors, scheduler_option, seed_option)
 
 
 @click.command("diagnose")
@@ -22,13 +22,18 @@ from .options import (fail, jobs_option, load_protocol_or_default, n_jobs, out_o
               help="The damping b the set-up assumes (N·m·s/rad, or N·s/m); otherwise identified.")
 @jobs_option
 @scheduler_option
+@overwrite_option
 @reports_errors
-def command(paths, protocol_path, out, seed, inertia, damping, jobs, scheduler):
+def command(paths: tuple[str, ...], protocol_path: str | None, out: str, seed: int, inertia: float | None,
+            damping: float | None, jobs: int | None, scheduler: str | None, overwrite: bool) -> None:
     """Diagnose the gap between the nominal model and the trials in PATHS (together: the effects'
     amplitudes are shared, each trial is held out block by block); write diagnosis.json and
     diagnosis.pdf."""
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
+    from ..files.outputs import refuse_existing
     from ..diagnosis.run import diagnose_files
+
+    refuse_existing(out, ("diagnosis.json", "diagnosis.pdf"), overwrite=overwrite)     # before any trial runs
     from ..batch.cluster import dask_executor
     from .progress import Progress
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import click
 
-from .options import fail, reports_errors, seed_option
+from .options import fail, overwrite_option, reports_errors, seed_option
 
 
-def _pairs(values, what):
+def _pairs(values: tuple[str, ...], what: str) -> dict[str, float]:
     out = {}
     for text in values:
         key, sep, value = text.partition("=")
@@ -22,7 +22,7 @@ def _pairs(values, what):
 
 @click.command("simulate")
 @click.argument("scenario", required=False)
-@click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
+@click.option("--out", "out", type=click.Path(), default=None,
               help="CSV file to write (default: SCENARIO[-EFFECT].csv).")
 @seed_option
 @click.option("--effect", default=None, help="Unmodelled effect to add (see --list).")
@@ -30,10 +30,13 @@ def _pairs(values, what):
 @click.option("--effect-param", "effect_params", multiple=True, metavar="KEY=VALUE",
               help="Effect parameter.")
 @click.option("--list", "list_", is_flag=True, help="List scenarios and effects with their parameters.")
+@overwrite_option
 @reports_errors
-def command(scenario, out, seed, effect, params, effect_params, list_):
+def command(scenario: str | None, out: str | None, seed: int, effect: str | None, params: tuple[str, ...],
+            effect_params: tuple[str, ...], list_: bool, overwrite: bool) -> None:
     """Simulate SCENARIO and write it in the input format, with a stiffness_true column."""
     from ..files import write_trial
+    from ..files.outputs import writable_file
     from ..simulate import SIMULATED_EFFECTS, SCENARIOS, simulate
 
     if list_:
@@ -46,11 +49,13 @@ def command(scenario, out, seed, effect, params, effect_params, list_):
         return
     if scenario is None:
         fail("give a SCENARIO (see 'limbstiff simulate --list')")
+    if out is not None:
+        writable_file(out, overwrite=overwrite)      # before simulating
     try:
         trial = simulate(scenario, seed=seed, params=_pairs(params, "--set"), effect=effect,
                          effect_params=_pairs(effect_params, "--effect-param"))
     except ValueError as exc:
         fail(str(exc))
-    path = out or f"{trial.name}.csv"
+    path = writable_file(out or f"{trial.name}.csv", overwrite=overwrite)
     write_trial(trial, path)
     click.echo(f"{trial.name}: {trial.n_samples} samples at {trial.fs:g} Hz -> {path}", err=True)

@@ -8,12 +8,14 @@ last: its presence marks a trial whose outputs are complete.
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import fields, is_dataclass
 from pathlib import Path
-from typing import Mapping
+from typing import Iterable, Mapping
 
 import numpy as np
 
+from ..errors import LimbstiffError
 from .atomic import atomic_write_text
 
 #: Significant digits of the stiffness columns of ``stiffness.csv``: the band is rarely narrower
@@ -103,3 +105,69 @@ def write_result(result, directory: str | Path, *, extra: dict | None = None) ->
         summary.update(extra)
     write_json(directory / SUMMARY_JSON, summary)
     return summary
+
+
+class OutputExists(LimbstiffError):
+    """A file a command would write is there already and ``--overwrite`` was not given (exit 2)."""
+
+
+class OutputPathError(LimbstiffError):
+    """A file a command would write cannot be written there (exit 2)."""
+
+
+def writable_file(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
+    """``path``, once checked that a command may write it as a file, before anything is computed
+    or written.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file to write (its folder must exist).
+    overwrite : bool
+        Whether an existing file may be replaced (``--overwrite``).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputExists
+        ``path`` exists and ``overwrite`` is false.
+    OutputPathError
+        ``path`` is a folder, its folder is missing, is a file or cannot be written in.
+    """
+    import tempfile
+
+    path = Path(path)
+    if path.is_dir():
+        raise OutputPathError(f"{path}: is a folder, not a file; give a file path")
+    if path.exists() and not overwrite:
+        raise OutputExists(f"{path} exists: use --overwrite to replace it, or another path")
+    parent = path.parent
+    if not parent.is_dir():
+        through = next((a for a in (parent, *parent.parents) if a.exists() and not a.is_dir()), None)
+        why = f"{through} is a file, not a folder" if through else f"its folder {parent} does not exist"
+        raise OutputPathError(f"{path}: cannot write it ({why}); choose another path")
+    try:
+        with tempfile.NamedTemporaryFile(dir=parent, prefix=".limbstiff-probe-"):
+            pass
+    except OSError as exc:
+        raise OutputPathError(f"{path}: cannot write in {parent} ({exc.strerror or type(exc).__name__}); "
+                              "choose another path") from None
+    return path
+
+
+def refuse_existing(directory: str | os.PathLike, names: Iterable[str], *, overwrite: bool = False) -> None:
+    """Refuse, before anything runs, to replace the outputs ``names`` in ``directory`` without
+    ``overwrite`` (``limbstiff diagnose``).
+
+    Raises
+    ------
+    OutputExists
+        One line naming the folder and the files there.
+    """
+    there = [n for n in names if (Path(directory) / n).exists()]
+    if there and not overwrite:
+        raise OutputExists(f"outputs in {directory} exist ({', '.join(there)}): use --overwrite to replace them, "
+                           "or another --out")
