@@ -380,3 +380,80 @@ def test_rows_read_straight_from_the_bytes_match_the_line_by_line_path(tmp_path)
     fast.write_text("\n".join(lines), encoding="utf-8")
     with pytest.raises(TrialError, match="'abc' in column 'angle_rad' at line 154"):
         read_trial(fast)
+
+
+# ---------------------------------------------------------------- files that are not text (issue 35)
+
+def _printable_line(message: str) -> bool:
+    """One line of printable text: no control character (C0, DEL, C1) anywhere."""
+    return all(ch.isprintable() for ch in message)
+
+
+PNG = (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\x00\x00\x00\x01\x00\x00\x00\x01\x08\x06\x00\x00\x00\x1f\x15\xc4\x89"
+       b"\x00\x00\x00\rIDATx\x9cc\xf8\x0f\x00\x00\x01\x01\x00\x05\x18\xd8N\x00\x00\x00\x00IEND\xaeB`\x82")
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_random_bytes_named_csv_are_not_a_text_file(tmp_path, seed):
+    raw = np.random.default_rng(seed).integers(0, 256, 4096, dtype=np.uint8).tobytes()
+    path = tmp_path / "trial.csv"
+    path.write_bytes(raw)
+    message = expect_error(path, "not a text file (it holds binary data): export the trial as CSV")
+    assert _printable_line(message)
+    assert message.startswith(f"{path}: ")          # the file's name, then only limbstiff's words
+    # with the protocol's encoding (no binary sniffing of the bytes): still refused, nothing copied
+    message = expect_error(path, "not a text file", protocol_from_dict({"format": {"encoding": "latin-1"}}))
+    assert _printable_line(message)
+
+
+def test_a_png_named_txt_is_not_a_text_file(tmp_path):
+    path = tmp_path / "figure.txt"
+    path.write_bytes(PNG)
+    message = expect_error(path, "not a text file (it looks like a PNG image)")
+    assert _printable_line(message) and "IHDR" not in message
+    workbook = tmp_path / "book.csv"                # an .xlsx saved under the wrong name
+    workbook.write_bytes(b"PK\x03\x04" + bytes(range(256)))
+    expect_error(workbook, "not a text file (it looks like a ZIP archive, or an .xlsx workbook)")
+
+
+def test_control_characters_deep_in_a_text_file_are_not_copied(tmp_path):
+    t, a, tau = signals()
+    lines = ("time_s,angle_rad,torque_Nm\n" + text_rows([t, a, tau], ",")).split("\n")
+    lines[300] = "1.495,\x07\x1b[31mred\x00,0.1"         # past the sniffed start: a bell, an escape, a NUL
+    path = tmp_path / "t.csv"
+    path.write_text("#" * 70000 + "\n" + "\n".join(lines), encoding="utf-8")   # past the sniffed characters
+    message = expect_error(path, "non-numeric value")
+    assert _printable_line(message) and "\\x07\\x1b[31mred\\x00" in message
+
+
+def test_utf16_text_as_excel_saves_unicode_text(tmp_path):
+    t, a, tau = signals()
+    path = tmp_path / "unicode.txt"
+    path.write_bytes(("Zeit (s)\tWinkel (°)\tMoment (Nm)\n" + text_rows([t, np.degrees(a), tau], "\t"))
+                     .encode("utf-16"))
+    read = read_trial(path, proto(time={"header": "Zeit"}, angle={"header": "Winkel"}, torque={"header": "Moment"}))
+    np.testing.assert_allclose(read.angle, a, rtol=1e-12, atol=1e-15)
+
+
+def test_a_binary_file_fails_its_trial_like_any_unreadable_one(tmp_path):
+    from limbstiff.cli import main
+
+    binary = tmp_path / "binary" / "trial.csv"
+    binary.parent.mkdir()
+    binary.write_bytes(np.random.default_rng(7).integers(0, 256, 2048, dtype=np.uint8).tobytes())
+    unreadable = tmp_path / "unreadable" / "trial.csv"
+    unreadable.parent.mkdir()
+    unreadable.write_text("a,b,c\n1,2,3\n")
+    codes = {}
+    for path in (binary, unreadable):
+        res = CliRunner().invoke(main, ["analyze", str(path), "--no-pdf", "--jobs", "1",
+                                        "--out", str(path.parent / "out")])
+        codes[path.parent.name] = res.exit_code
+        assert _printable_line(res.output.replace("\n", "")), res.output
+    assert codes["binary"] == codes["unreadable"] == 1
+    assert "not a text file" in res_output(binary.parent / "out")
+
+
+def res_output(out: Path) -> str:
+    """The error column of a batch's summary.csv."""
+    return (out / "summary.csv").read_text(encoding="utf-8")

@@ -19,6 +19,47 @@ _QUOTED = re.compile(r'"[^"]*"')
 _NAMES = {",": "','", ";": "';'", "\t": "tabs"}
 #: Data lines looked at to detect a decimal comma (and kept with their byte offsets).
 SNIFF_LINES = 50
+#: Characters of a decoded file looked at for control characters (binary data).
+SNIFF_CHARS = 65536
+#: Control characters no text trial holds (C0 but tab, line feed, form feed, carriage return; DEL).
+CONTROL = re.compile(r"[\x00-\x08\x0b\x0e-\x1f\x7f]")
+#: What a binary file that is not text starts with, and what it is.
+_MAGIC = ((b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"GIF8", "a GIF image"),
+          (b"%PDF", "a PDF document"), (b"PK\x03\x04", "a ZIP archive, or an .xlsx workbook"),
+          (b"\xd0\xcf\x11\xe0", "an old Office file, such as an .xls workbook"),
+          (b"\x1f\x8b", "a gzip archive"), (b"MATLAB", "a MATLAB .mat file"),
+          (b"\x89HDF", "an HDF5 file"))
+
+
+def binary_kind(where: str, raw: bytes, text: str | None = None) -> None:
+    """Refuse a file that is not text: one line naming the file and what to do, nothing copied
+    from its content.
+
+    Parameters
+    ----------
+    where : str
+        File name, for the message.
+    raw : bytes
+        The file's content, looked at for the start of a known binary format.
+    text : str or None
+        Its decoded text (None before decoding), looked at for control characters in its first
+        :data:`SNIFF_CHARS` characters.
+
+    Raises
+    ------
+    TrialError
+        ``not a text file``.
+    """
+    kind = next((what for magic, what in _MAGIC if raw.startswith(magic)), None)
+    if kind is None and text is not None and CONTROL.search(text, 0, SNIFF_CHARS):
+        kind = "it holds binary data"
+    elif kind is None and text is None and b"\x00" in raw[:SNIFF_CHARS]:
+        kind = "it holds binary data"
+    elif kind is not None:
+        kind = f"it looks like {kind}"
+    if kind is not None:
+        raise TrialError(where, f"not a text file ({kind}): export the trial as CSV (UTF-8 text), or give "
+                                f"the file the extension of its format (.csv, .tsv, .txt, .xlsx, .mat, .c3d)")
 
 
 class TextLayout(NamedTuple):
@@ -45,9 +86,18 @@ class TextLayout(NamedTuple):
     decimal: str
 
 
+def shown(cell: str, limit: int = 30) -> str:
+    """A file's text as a message may quote it: at most ``limit`` characters, control characters
+    written as ``\\xNN`` (a message is one printable line whatever the file holds)."""
+    cell = cell[:limit]
+    return CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", cell.replace("\n", " ").replace("\r", " "))
+
+
 def detect_layout(where: str, header_line: str, rest: list, protocol) -> TextLayout:
     """Delimiter, headers, unit row and decimal mark, from the protocol's ``[format]`` or detected
     in ``header_line`` and the first rows below it, ``rest`` (line number, line)."""
+    if CONTROL.search(header_line):
+        binary_kind(where, b"", header_line)
     forced = getattr(protocol, "delimiter", "auto")
     delimiter = _detect_delimiter(header_line) if forced == "auto" else forced
     headers = _headers(where, header_line, delimiter, forced=forced != "auto")
@@ -77,7 +127,7 @@ def _headers(where: str, line: str, delimiter: str, forced: bool) -> list[str]:
             raise TrialError(where, f"the header has a single column: the file is not separated by "
                                     f"{_NAMES[delimiter]} as the protocol says (it uses {_NAMES[others[0]]})")
         if len(headers[0].split()) > 1:
-            raise TrialError(where, f"the header '{headers[0][:40]}' is a single column: separate the "
+            raise TrialError(where, f"the header '{shown(headers[0], 40)}' is a single column: separate the "
                                     f"fields with commas, tabs or semicolons (spaces are not supported)")
     seen: dict[str, int] = {}
     for i, h in enumerate(headers):
@@ -119,7 +169,7 @@ def _unit_row(where: str, rest, delimiter: str, setting):
         return None, rest
     if numeric:
         raise TrialError(where, f"line {number} should be the unit row (the protocol says unit_row = true) "
-                                f"but holds the number '{numeric[0][:20]}'")
+                                f"but holds the number '{shown(numeric[0], 20)}'")
     return units, rest[1:]
 
 

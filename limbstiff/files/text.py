@@ -28,7 +28,7 @@ import pandas as pd
 from ..errors import TrialError
 from ..trial import Trial
 from .columns import ColumnSpec, joint_kind, resolve_columns
-from .dialect import DECIMAL_COMMA, SNIFF_LINES, detect_layout
+from .dialect import DECIMAL_COMMA, SNIFF_LINES, binary_kind, detect_layout, shown
 from ..units import FIELDS, to_si
 from .validate import checked_trial
 
@@ -65,7 +65,8 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     where = str(path)
     text, notes = _decode(where, raw, getattr(protocol, "encoding", "auto"))
     source_bytes = raw
-    if notes or getattr(protocol, "encoding", "auto") not in ("auto", "utf-8", "utf-8-sig", "utf8"):
+    if notes or getattr(protocol, "encoding", "auto") not in ("auto", "utf-8", "utf-8-sig", "utf8") \
+            or raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
         raw = text.encode("utf-8")          # the row reader and its byte offsets work on UTF-8
     body = _body(text, raw)
     if body is None:   # blank lines or bare CR line ends among the rows: line by line
@@ -129,6 +130,10 @@ def _decode(where: str, raw: bytes, encoding: str = "auto") -> tuple[str, list[s
     used as given.
     """
     notes: list[str] = []
+    if encoding == "auto" and raw[:2] in (b"\xff\xfe", b"\xfe\xff"):    # Excel's "Unicode text": UTF-16
+        encoding = "utf-16"
+    if encoding == "auto":
+        binary_kind(where, raw)         # NUL bytes, a PNG's signature: before any decoding
     if encoding != "auto":
         try:
             text = raw.decode(encoding)
@@ -151,6 +156,7 @@ def _decode(where: str, raw: bytes, encoding: str = "auto") -> tuple[str, list[s
             notes.append(f"not UTF-8 text (byte 0x{raw[exc.start]:02x} at line {line}): read as "
                          f"{'Windows-1252' if fallback == 'cp1252' else 'Latin-1'}; set [format] encoding in "
                          "a protocol if that is wrong")
+    binary_kind(where, raw if encoding == "auto" else b"", text)
     if not text.strip():
         raise TrialError(where, "empty file")
     return text, notes
@@ -282,7 +288,7 @@ def _read_rows(where, source, numbers, width, sep, decimal, dtype) -> pd.DataFra
         if match:
             want, line, saw = (int(g) for g in match.groups())
             raise TrialError(where, f"line {numbers[line - 1]} has {saw} fields, the header has {want}") from None
-        raise TrialError(where, f"cannot parse the rows ({str(exc).splitlines()[-1]})") from None
+        raise TrialError(where, f"cannot parse the rows ({shown(str(exc).splitlines()[-1], 200)})") from None
 
 
 def _bad_cell(cell: str, number: float, column: ColumnSpec, line: int, time: float | None,
@@ -290,15 +296,16 @@ def _bad_cell(cell: str, number: float, column: ColumnSpec, line: int, time: flo
     at = f"in column '{column.header}' at line {line}"
     if time is not None:
         at += f" (t = {time:g} s)"
+    quoted = shown(cell, 30)
     if cell == "":
         return f"empty cell {at}"
     if cell.lower() in _NAN_WORDS:
         return f"NaN {at}"
     if np.isinf(number):
-        return f"infinite value '{cell}' {at}"
+        return f"infinite value '{quoted}' {at}"
     if decimal == "," and "." in cell:
-        return f"non-numeric value '{cell[:30]}' {at} (the file uses decimal commas)"
+        return f"non-numeric value '{quoted}' {at} (the file uses decimal commas)"
     if decimal == "." and DECIMAL_COMMA.match(cell):
-        return (f"non-numeric value '{cell[:30]}' {at} (a decimal comma? set decimal = \",\" "
+        return (f"non-numeric value '{quoted}' {at} (a decimal comma? set decimal = \",\" "
                 f"in the protocol's [format])")
-    return f"non-numeric value '{cell[:30]}' {at}"
+    return f"non-numeric value '{quoted}' {at}"
