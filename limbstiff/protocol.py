@@ -112,6 +112,8 @@ class Protocol:
     max_gap_s : float or None, s
         Longest gap in the time column bridged by interpolation (marked unobservable); None:
         from the data (:func:`limbstiff.files.validate.default_max_gap`).
+    sheet : str or None
+        The worksheet of ``.xlsx`` files to read; None: the first.
     variant : {"auto", "external", "direct"}
         Observer variant; ``auto`` takes ``direct`` when an elastic torque is recorded.
     estimator : str
@@ -164,6 +166,7 @@ class Protocol:
     sample_rate_hz: float | None = None
     encoding: str = "auto"
     max_gap_s: float | None = None
+    sheet: str | None = None
     variant: str = "auto"
     estimator: str = "kalman"
     observer_gain: float | None = None
@@ -205,7 +208,7 @@ class Protocol:
                 # a component only where one is set: the settings (and their hash) of other files unchanged
                 value = {q: {g.name: getattr(c, g.name) for g in fields(c)
                              if g.name != "component" or c.component is not None} for q, c in value.items()}
-            if (f.name == "limb" and value is None) or (f.name == "effects" and not value):
+            if (f.name in ("limb", "sheet") and value is None) or (f.name == "effects" and not value):
                 continue        # the settings (and their hash) of protocols without a limb or effects unchanged
             if f.name == "effects":
                 value = list(value)
@@ -216,7 +219,8 @@ class Protocol:
 # TOML layout: section -> {key in file: Protocol field}
 _SECTIONS = {
     "format": {"delimiter": "delimiter", "decimal": "decimal", "unit_row": "unit_row",
-               "sample_rate_hz": "sample_rate_hz", "encoding": "encoding", "max_gap_s": "max_gap_s"},
+               "sample_rate_hz": "sample_rate_hz", "encoding": "encoding", "max_gap_s": "max_gap_s",
+               "sheet": "sheet"},
     "observer": {"variant": "variant", "estimator": "estimator", "gain": "observer_gain",
                  "discretisation": "discretisation"},
     "signals": {"derivatives": "derivatives", "bandwidth_hz": "bandwidth_hz",
@@ -378,6 +382,8 @@ def _check_format(p: Protocol, where) -> None:
             raise ProtocolError(where, f"'{name}' in [format] must be one of {shown}, not {getattr(p, name)!r}")
     if p.unit_row not in (True, False, "auto") or not isinstance(p.unit_row, (bool, str)):
         raise ProtocolError(where, f"'unit_row' in [format] must be true, false or \"auto\", not {p.unit_row!r}")
+    if p.sheet is not None and not (isinstance(p.sheet, str) and p.sheet.strip()):
+        raise ProtocolError(where, f"'sheet' in [format] must be a worksheet's name, not {p.sheet!r}")
     if p.delimiter == "," and p.decimal == ",":
         raise ProtocolError(where, "[format] delimiter and decimal cannot both be ','")
     if p.encoding != "auto":

@@ -329,9 +329,9 @@ def test_format_section(tmp_path):
 
 def test_unknown_extension_and_case(tmp_path):
     t, a, tau = signals()
-    path = tmp_path / "trial.xlsx"
+    path = tmp_path / "trial.xlsb"
     path.write_bytes(b"PK\x03\x04")
-    expect_error(path, "unknown file type '.xlsx' (accepted: .csv, .tsv, .txt, .mat, .c3d)")
+    expect_error(path, "unknown file type '.xlsb' (accepted: .csv, .tsv, .txt, .mat, .c3d, .xlsx)")
     expect_error(tmp_path / "noext", "unknown file type '(no extension)'")
     upper = tmp_path / "UP.MAT"
     sio.savemat(upper, {"time_s": t, "angle_rad": a, "torque_Nm": tau})

@@ -1,4 +1,4 @@
-"""Input and output: trial files (CSV, TSV, MAT), units, atomic writes and file hashes.
+"""Input and output: trial files (CSV, TSV, XLSX, MAT), units, atomic writes and file hashes.
 
 Scope: everything that touches trial files on disk (:func:`read_trial` for every accepted
 format, :func:`write_trial` for the standard CSV), the explicit unit table (:data:`UNITS`)
@@ -9,6 +9,7 @@ and the atomic-write helpers every output goes through.
 | ``read.py`` | :func:`read_trial`: the reader chosen by extension |
 | ``text.py`` | CSV, TSV, semicolon-separated text (decimal comma, unit row) |
 | ``mat.py`` | MATLAB ``.mat`` files (v4–v7) |
+| ``excel.py`` | Excel ``.xlsx`` workbooks (one worksheet, read like text) |
 | ``columns.py`` | which column or variable fills which quantity, in which unit |
 | ``validate.py`` | the common checks: time, gaps, length, motion, resampling, SHA-256 |
 | ``units.py`` | the unit table and standard ``<quantity>_<unit>`` names |

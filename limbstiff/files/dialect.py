@@ -31,6 +31,11 @@ _MAGIC = ((b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"GIF
           (b"\x89HDF", "an HDF5 file"))
 
 
+def looks_like(raw: bytes) -> str | None:
+    """What a file is by the start of a known binary format (``"a PNG image"``), or None."""
+    return next((what for magic, what in _MAGIC if raw.startswith(magic)), None)
+
+
 def binary_kind(where: str, raw: bytes, text: str | None = None) -> None:
     """Refuse a file that is not text: one line naming the file and what to do, nothing copied
     from its content.
@@ -50,7 +55,7 @@ def binary_kind(where: str, raw: bytes, text: str | None = None) -> None:
     TrialError
         ``not a text file``.
     """
-    kind = next((what for magic, what in _MAGIC if raw.startswith(magic)), None)
+    kind = looks_like(raw)
     if kind is None and text is not None and CONTROL.search(text, 0, SNIFF_CHARS):
         kind = "it holds binary data"
     elif kind is None and text is None and b"\x00" in raw[:SNIFF_CHARS]:
@@ -137,7 +142,7 @@ def _headers(where: str, line: str, delimiter: str, forced: bool) -> list[str]:
     return headers
 
 
-def _unit_cell(cell: str) -> str | None:
+def unit_cell(cell: str) -> str | None:
     """A unit-row cell without brackets (``[deg]`` → ``deg``); None when empty or ``-``."""
     cell = cell.strip()
     if len(cell) > 2 and cell[0] + cell[-1] in ("[]", "()"):
@@ -145,7 +150,7 @@ def _unit_cell(cell: str) -> str | None:
     return None if cell in ("", "-") else cell
 
 
-def _is_number(cell: str) -> bool:
+def is_number(cell: str) -> bool:
     try:
         float(cell.replace(",", "."))
     except ValueError:
@@ -163,8 +168,8 @@ def _unit_row(where: str, rest, delimiter: str, setting):
         return None, rest
     number, line = rest[0]
     cells = _cells(line, delimiter)
-    units = [_unit_cell(c) for c in cells]
-    numeric = [c for c in cells if c and _is_number(c)]
+    units = [unit_cell(c) for c in cells]
+    numeric = [c for c in cells if c and is_number(c)]
     if setting == "auto" and (numeric or not any(u in UNITS for u in units)):
         return None, rest
     if numeric:

@@ -5,6 +5,9 @@
 | ``.csv``, ``.tsv``, ``.txt`` | :func:`limbstiff.files.text.read_text` (comma, tab or semicolon, detected) |
 | ``.mat`` | :func:`limbstiff.files.mat.read_mat` (MATLAB v4–v7; v7.3/HDF5 is refused) |
 | ``.c3d`` | :func:`limbstiff.files.c3d.read_c3d` (through a protocol; the optional ``ezc3d`` extra) |
+| ``.xlsx`` | :func:`limbstiff.files.excel.read_xlsx` (one worksheet, read like text) |
+
+Old binary Excel workbooks (``.xls``) are refused with what to do (:data:`REFUSED`).
 
 :data:`EXTENSIONS` is the one registry of file types: :func:`read_trial` reads what it lists,
 and a batch searches folders for the types it marks ``in_folders``
@@ -38,6 +41,11 @@ def _read_mat(path: Path, raw: bytes, protocol: Protocol | None, name: str | Non
     return read_mat(path, raw, protocol, name=name)
 
 
+def _read_xlsx(path: Path, raw: bytes, protocol: Protocol | None, name: str | None) -> Trial:
+    from .excel import read_xlsx
+    return read_xlsx(path, raw, protocol, name=name)
+
+
 def _read_c3d(path: Path, raw: bytes, protocol: Protocol | None, name: str | None) -> Trial:
     from .c3d import read_c3d
     return read_c3d(path, raw, protocol, name=name)
@@ -62,11 +70,13 @@ class FileType:
 
 
 #: Accepted extensions (lower case) and their file types, in the order error messages list them.
-#: ``.txt`` is read when named but not searched for: a data folder's README.txt or notes would
-#: otherwise become failed trials.
+#: ``.txt`` and ``.xlsx`` are read when named but not searched for: a data folder's README.txt,
+#: notes or subject list would otherwise become failed trials.
 EXTENSIONS = FrozenDict({".csv": FileType(_read_text), ".tsv": FileType(_read_text),
                          ".txt": FileType(_read_text, in_folders=False), ".mat": FileType(_read_mat),
-                         ".c3d": FileType(_read_c3d)})
+                         ".c3d": FileType(_read_c3d), ".xlsx": FileType(_read_xlsx, in_folders=False)})
+#: Extensions of trial formats that are not read, and what to do instead.
+REFUSED = FrozenDict({".xls": "an old binary Excel workbook (.xls) is not read: save it as .xlsx or .csv"})
 #: The extensions a batch searches folders for.
 FOLDER_EXTENSIONS = tuple(ext for ext, file_type in EXTENSIONS.items() if file_type.in_folders)
 
@@ -79,11 +89,13 @@ def read_trial(path, protocol: Protocol | None = None, *, name: str | None = Non
     path : str or path-like
         A ``.csv``, ``.tsv`` or ``.txt`` file (UTF-8 text: ``# key: value`` metadata lines,
         one header row, an optional unit row, one row per sample; comma, tab or semicolon
-        separated), a ``.mat`` file (MATLAB v4 to v7: one variable per quantity) or a ``.c3d``
-        file (analog or point channels named by the protocol).
+        separated), an ``.xlsx`` workbook (one worksheet laid out as the text), a ``.mat`` file
+        (MATLAB v4 to v7: one variable per quantity) or a ``.c3d`` file (analog or point
+        channels named by the protocol).
     protocol : Protocol or None
         Maps other column or variable names, units, scales and signs (``protocol.columns``);
-        ``delimiter``, ``decimal``, ``unit_row`` of text files; ``sample_rate_hz`` (Hz) of
+        ``delimiter``, ``decimal``, ``unit_row`` of text files; ``sheet`` of workbooks;
+        ``sample_rate_hz`` (Hz) of
         files without time; ``sample_period`` (s) to resample to. Quantities it does not
         list use the standard ``<quantity>_<unit>`` names.
     name : str or None
@@ -103,6 +115,8 @@ def read_trial(path, protocol: Protocol | None = None, *, name: str | None = Non
     if path.is_dir():
         raise TrialError(str(path), "is a directory, not a trial file")
     file_type = EXTENSIONS.get(path.suffix.lower())
+    if path.suffix.lower() in REFUSED:
+        raise TrialError(str(path), REFUSED[path.suffix.lower()])
     if file_type is None:
         accepted = ", ".join(EXTENSIONS)
         raise TrialError(str(path), f"unknown file type '{path.suffix or '(no extension)'}' "
