@@ -8,6 +8,7 @@ Plain functions of a :class:`~limbstiff.result.StiffnessResult` returning string
 from __future__ import annotations
 
 import textwrap
+from typing import NamedTuple
 
 import numpy as np
 
@@ -27,6 +28,93 @@ ANGLE_PROPERTY = "the joint's stiffness depends on its angle"
 ANGLE_VERDICT = "the stiffness varies with the angle within each cycle (see below)"
 #: Metadata lines on page 1 at most (the rest is in summary.json).
 METADATA_LINES = 6
+
+
+class CycleCourse(NamedTuple):
+    """The stiffness course at the resolution the data support: one value per motion cycle
+    (:func:`cycle_course`). Arrays of shape (k,), one entry per cycle.
+
+    Parameters
+    ----------
+    time : ndarray, s
+        Middle of the cycle.
+    stiffness : ndarray, N·m/rad (N/m)
+        Median of the estimate over the cycle's informed samples (NaN for an uninformed cycle; over
+        all samples when none of the trial is informed).
+    lo, hi : ndarray, N·m/rad (N/m)
+        Medians of the band's bounds over those samples: the per-sample band, typical for the cycle.
+    informed : ndarray of bool
+        At least half of the cycle's samples informed by motion (and clear of the filter's edges).
+    seconds : float, s
+        Length of a cycle (of the bins).
+    """
+
+    time: np.ndarray
+    stiffness: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    informed: np.ndarray
+    seconds: float
+
+
+def _bin_samples(result) -> int:
+    """Samples per bin of :func:`cycle_course`: one motion period, in whole Kalman steps (one
+    sample per step for the observers), one step at least."""
+    step = int(getattr(result.fit, "decimation", None) or 1)
+    motion_hz = getattr(result.filtered, "motion_hz", None)
+    if motion_hz is None or not np.isfinite(motion_hz) or motion_hz <= 0:
+        return step
+    return step * max(1, int(round(result.trial.fs / motion_hz / step)))
+
+
+def cycle_course(result) -> CycleCourse:
+    """The stiffness course binned to one period of the trial's motion, over its informed samples.
+
+    Why one motion period: the stiffness is the slope of torque against angle, and the angle sweeps
+    its range once per period; within a period the data hold one slope. The Kalman smoother's
+    course, sample by sample, moves faster than that wherever the model takes up torque it cannot
+    explain (a reflex, a resonance) as stiffness changes: on the real ankle trial ``z_pf`` it swings
+    from −100 to +200 N·m/rad within a second while its per-sample band is 120 N·m/rad wide. The
+    stiffness walk of the model has no time constant of its own to bin to, so the motion's period
+    is the finest resolution a reader can trust; a course that changes over seconds (the bundled
+    elbow's ramp) keeps its shape. Bins are whole Kalman steps (the smoother's own resolution).
+
+    The band drawn with a cycle is the median of the per-sample band over it: the uncertainty of a
+    value at one instant of the cycle, not the (narrower) one of the cycle's median, which would need
+    the course's joint draws. Samples not informed by motion, and the filter's edge samples at both
+    ends (the smoother's start, where the band is many times its typical width), are left out; a
+    cycle with fewer than half its samples left is not informed and has no value (NaN).
+
+    Parameters
+    ----------
+    result : StiffnessResult
+
+    Returns
+    -------
+    CycleCourse
+    """
+    n = result.stiffness.size
+    width = min(_bin_samples(result), n)
+    use = np.asarray(result.observable, bool).copy()
+    edge = int(getattr(result.filtered, "edge", 0) or 0)
+    if edge:
+        use[:edge] = use[n - edge:] = False
+    anything = use.any()
+    if not anything:                                    # drawn over all samples, every cycle uninformed
+        use[:] = True
+    starts = np.arange(0, n - width + 1, width)
+    stops = np.append(starts[1:], n)                    # the rest of the trial joins the last bin
+    k = starts.size
+    out = np.full((3, k), np.nan)
+    informed = np.zeros(k, bool)
+    for j, (a, b) in enumerate(zip(starts, stops)):
+        sel = use[a:b]
+        informed[j] = 2 * np.count_nonzero(sel) >= b - a
+        if informed[j]:
+            out[:, j] = [np.median(x[a:b][sel]) for x in (result.stiffness, result.stiffness_lo, result.stiffness_hi)]
+    t = result.trial.time
+    middle = 0.5 * (t[starts] + t[stops - 1])
+    return CycleCourse(middle, out[0], out[1], out[2], informed & anything, width / result.trial.fs)
 
 
 def number(x, unit: str = "", digits: int = 4) -> str:
@@ -66,7 +154,7 @@ def headline_rows(result) -> list[tuple[str, str]]:
     the true stiffness.
     """
     u, pct = result.trial.units, f"{100 * result.ci_level:.0f} %"
-    median, low, high = result.informed_stiffness()
+    median, _, _ = result.informed_stiffness()
     level = result.trial_level
     joint = level is not None and np.isfinite(median.lo)
     angle = joint and "angle" in level.sources and _failed(result, "angle_dependence")
@@ -81,8 +169,7 @@ def headline_rows(result) -> list[tuple[str, str]]:
                   + f"  — {pct} interval, from the line of stiffness against background torque"),
                  ("Stiffness vs torque", interval_text(level.stiffness_torque_slope, slope_unit)
                   + f"  — that line's slope, {pct} interval")]
-    where = "informed samples" if result.observable.any() else "all samples: none is informed"
-    rows.append(("Stiffness range", f"{number(low)} to {number(high, u['stiffness'])} over the trial ({where})"))
+    rows.append(("Stiffness range", range_text(result)))
     rows += [(name.capitalize(), mechanics_text(result, name)) for name in ("inertia", "damping")]
     rows += [(f"In the model: {e.name}", effect_text(e, pct)) for e in
              (() if result.identification is None else result.identification.effects)]
@@ -93,6 +180,20 @@ def headline_rows(result) -> list[tuple[str, str]]:
                                            f"{100 * err['p90']:.2f} %; the band holds it at "
                                            f"{100 * err['coverage']:.0f} % of the samples"))
     return rows
+
+
+def range_text(result) -> str:
+    """The course's range on page 1: the lowest and highest median over one motion cycle (the
+    resolution the data support, :func:`cycle_course`), over the informed cycles."""
+    unit = result.trial.units["stiffness"]
+    course = cycle_course(result)
+    if course.informed.any():
+        values = course.stiffness[course.informed]
+        return (f"{number(np.min(values))} to {number(np.max(values), unit)}  — lowest and highest median over "
+                f"one motion cycle ({course.seconds:.3g} s), over the {values.size} informed cycles")
+    _, low, high = result.informed_stiffness()
+    where = "informed samples" if result.observable.any() else "all samples: none is informed"
+    return f"{number(low)} to {number(high, unit)} over the trial ({where}; no cycle is informed)"
 
 
 def _failed(result, name: str) -> bool:

@@ -353,3 +353,88 @@ def test_no_stiffness_against_angle_without_the_angle_terms():
     assert angle_figure(result) is None
     with style():
         assert len(relation_page(result).axes) == 2
+
+
+def _fake_result(stiffness, observable, *, fs=100.0, motion_hz=2.0, decimation=5, edge=4):
+    """What :func:`limbstiff.digest.cycle_course` reads of a result."""
+    from types import SimpleNamespace
+    n = stiffness.size
+    return SimpleNamespace(stiffness=stiffness, stiffness_lo=stiffness - 10.0, stiffness_hi=stiffness + 10.0,
+                           observable=observable, trial=SimpleNamespace(fs=fs, time=np.arange(n) / fs,
+                                                                        units={"stiffness": "N·m/rad"}),
+                           filtered=SimpleNamespace(motion_hz=motion_hz, edge=edge),
+                           fit=SimpleNamespace(decimation=decimation),
+                           informed_stiffness=lambda: (None, float(np.min(stiffness)), float(np.max(stiffness))))
+
+
+def test_cycle_course_is_one_median_per_motion_period_over_informed_samples():
+    """A course that swings sample by sample is drawn, and its range taken, at one value per motion
+    period (50 samples here, whole Kalman steps of 5); uninformed cycles and the filter's edge
+    samples (here a wild start) have no say."""
+    from limbstiff.digest import cycle_course, range_text
+    n = 500
+    stiffness = 50.0 + np.where(np.arange(n) % 2 == 0, 100.0, -100.0) + np.repeat(np.arange(10.0), 50)
+    stiffness[:4] = 1e4                                        # the smoother's start, within the edge
+    observable = np.ones(n, bool)
+    observable[100:150] = False                                # one cycle not informed
+    observable[200:230] = False                                # most of another
+    course = cycle_course(_fake_result(stiffness, observable))
+    assert course.seconds == pytest.approx(0.5) and course.time.size == 10
+    expected = 50.0 + np.arange(10.0)
+    informed = np.ones(10, bool)
+    informed[[2, 4]] = False
+    np.testing.assert_array_equal(course.informed, informed)
+    np.testing.assert_allclose(course.stiffness[informed], expected[informed])
+    assert np.isnan(course.stiffness[~informed]).all()
+    np.testing.assert_allclose(course.hi - course.lo, np.where(informed, 20.0, np.nan))
+    text = range_text(_fake_result(stiffness, observable))
+    assert text.startswith("50 to 59 N·m/rad") and "8 informed cycles" in text
+
+
+def test_cycle_course_of_a_trial_without_motion_draws_everything_uninformed():
+    from limbstiff.digest import cycle_course, range_text
+    result = _fake_result(np.full(200, 7.0), np.zeros(200, bool), motion_hz=float("nan"))
+    course = cycle_course(result)
+    assert course.time.size == 40 and not course.informed.any() and np.isfinite(course.stiffness[1:-1]).all()
+    assert "no cycle is informed" in range_text(result) or "none is informed" in range_text(result)
+
+
+def test_page_one_draws_the_course_per_cycle_and_fills_the_page(elbow):
+    """Page 1's course: one point per motion cycle, its limits those of the informed cycles (no
+    tall band at the start); the text between the plot and the footer, the page used to its foot."""
+    from limbstiff.digest import cycle_course
+    from limbstiff.report.common import FOOTER_HEIGHT
+    page = report_figures(elbow)[0]
+    ax = next(ax for ax in page.axes if ax.get_ylabel().startswith("stiffness"))
+    course = cycle_course(elbow)
+    assert any(line.get_xdata().size == course.time.size for line in ax.get_lines())
+    band = course.hi[course.informed].max() - course.lo[course.informed].min()
+    lo, hi = ax.get_ylim()
+    assert hi - lo < 2 * band and hi - lo < (elbow.stiffness_hi - elbow.stiffness_lo).max() + band
+    legend = ax.get_legend()
+    assert legend.get_bbox_to_anchor().y0 >= ax.get_position().y1 - 1e-9 or legend._loc == 3
+    below = [t.get_position()[1] for t in page.texts
+             if 0.02 < t.get_position()[1] < ax.get_position().y0]            # not the footer
+    assert below and min(below) > FOOTER_HEIGHT
+    lowest = min(min(below), *(a.get_position().y0 for a in page.axes))
+    assert lowest < 0.3, "the bottom of page 1 is left empty"
+    assert "lowest and highest median over one motion cycle" in " ".join(t.get_text() for t in page.texts)
+
+
+def test_two_panel_figure_keeps_its_legend_to_its_own_panel(elbow, tmp_path):
+    """The README's figure: the course's legend stays above its own panel, the x labels inside the image."""
+    import matplotlib.pyplot as plt
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 3.5), layout="constrained")
+    try:
+        elbow.plot(ax=left)
+        elbow.plot(ax=right, against="angle")
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        legend = left.get_legend().get_window_extent(renderer)
+        assert legend.x1 <= right.get_window_extent(renderer).x0
+        assert not legend.overlaps(left.get_window_extent(renderer).shrunk(1.0, 0.9))
+        for ax in (left, right):
+            label = ax.xaxis.label.get_window_extent(renderer)
+            assert label.y0 >= 0 and label.x1 <= fig.bbox.x1
+    finally:
+        plt.close(fig)

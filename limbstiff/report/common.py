@@ -18,7 +18,10 @@ import numpy as np
 
 from .. import __version__
 from ..files.atomic import atomic_output
-from ..digest import number as fmt  # noqa: F401  (the reports' number format)
+from ..digest import number
+
+#: The reports' number format.
+fmt = number
 
 #: A4 portrait, inches.
 A4 = (8.27, 11.69)

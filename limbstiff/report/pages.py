@@ -26,23 +26,52 @@ ANGLE_PAGE = 3
 
 
 def summary_page(result):
-    """Page 1, the answer: verdict with its reasons, the stiffness over time, the trial's figures
-    with their intervals, warnings and a short table of what was recorded."""
+    """Page 1, the answer: verdict with its reasons, the stiffness over time (one median per motion
+    cycle with its band), the trial's figures with their intervals, warnings and a short table of
+    what was recorded. The room the text leaves goes to the stiffness against torque when there is
+    enough for a second plot (:data:`TORQUE_PANEL_MIN`), else to the course's plot."""
     fig = new_page()
     fig.text(0.06, 0.962, "Stiffness report", fontsize=FONT["title"], weight="bold", va="center")
     fig.text(0.94, 0.962, result.trial.name, fontsize=FONT["heading"], color="0.3", ha="right", va="center")
     y = _verdict_box(fig, result, 0.935)
-    height = 0.23
-    ax = fig.add_axes((0.1, y - height - 0.01, 0.84, height))
+    height = COURSE_HEIGHT[0]
+    ax = fig.add_axes((0.1, y - height - 0.035, 0.84, height))        # room for the legend above it
     plot_stiffness(result, ax=ax)
-    y = _key_values(fig, headline_rows(result) + angle_rows(result), y - height - 0.055, fontsize=FONT["body"],
-                    wrap=78)
+    first = len(fig.texts)
+    y = _key_values(fig, headline_rows(result) + angle_rows(result), y - height - 0.08, fontsize=FONT["body"],
+                    wrap=80, title="The trial's figures")
     recording = recording_rows(result)
-    room = 0.026 + len(recording) * 1.9 * FONT["small"] / 72 / A4[1]       # the recording table's height
-    y = _bullets(fig, "Warnings", list(result.warnings) or ["none"], y - 0.01, floor=FOOTER_HEIGHT + room + 0.02)
-    _key_values(fig, recording, y - 0.01, fontsize=FONT["small"], wrap=95, title="Recording",
-                floor=FOOTER_HEIGHT + 0.01)
+    room = 0.036 + 2.4 * ROW_SPACING * 1.05 * FONT["small"] / 72 / A4[1]   # the recording's title, source, sampling
+    y = _bullets(fig, "Warnings", list(result.warnings) or ["none"], y - 0.01, floor=FOOTER_HEIGHT + room + 0.01)
+    y = _key_values(fig, recording, y - 0.01, fontsize=FONT["small"], wrap=95, title="Recording",
+                    floor=FOOTER_HEIGHT + 0.01)
+    spare = y - FOOTER_HEIGHT - 0.02
+    if spare >= TORQUE_PANEL_MIN and result.observable.any():
+        _torque_panel(fig, result, y, FOOTER_HEIGHT + 0.045)
+    elif spare > 0:                       # a taller course, the text below it moved down
+        spare = min(spare, COURSE_HEIGHT[1] - height)
+        x0, y0, w, h = ax.get_position().bounds
+        ax.set_position((x0, y0 - spare, w, h + spare))
+        for text in fig.texts[first:]:
+            text.set_y(text.get_position()[1] - spare)
     return fig
+
+
+#: Page 1's course plot: its height at least and at most, in page fractions (the text is laid out
+#: below the smallest, and the room it leaves makes the plot taller).
+COURSE_HEIGHT = (0.16, 0.32)
+#: Page 1's room below its text, in page fractions, from which the stiffness against torque is drawn
+#: there (less would be a plot too flat to read; the course's plot is made taller instead).
+TORQUE_PANEL_MIN = 0.2
+
+
+def _torque_panel(fig, result, top: float, bottom: float) -> None:
+    """The stiffness against torque (:func:`plot_relation`) between heights ``top`` and ``bottom``
+    (page fractions; the title above its axes, the labels below)."""
+    ax = fig.add_axes((0.1, bottom, 0.84, min(top - 0.045 - bottom, 0.26)))
+    plot_relation(result, "torque", ax=ax, legend=False)
+    ax.set_title("Stiffness against torque: black, median in bins of equal counts with the median band; "
+                 "blue, 10th–90th percentile in the bin (page 3)", fontsize=FONT["small"], loc="left")
 
 
 def _angle_flagged(result) -> bool:
@@ -80,28 +109,23 @@ def _verdict_box(fig, result, y: float) -> float:
 
 def _key_values(fig, rows: list[tuple[str, str]], y: float, *, fontsize: float, wrap: int,
                 title: str | None = None, floor: float = 0.0) -> float:
-    """Bold labels with their wrapped texts from height ``y`` (page fraction) down, none below
-    ``floor`` (the rest counted in a last line); the height reached. Labels and texts are one
-    column of lines each: two texts to lay out and draw, not two per row."""
+    """Bold labels with their wrapped texts from height ``y`` (page fraction) down, a little space
+    between rows, none below ``floor`` (the rest counted in a last line); the height reached."""
     line = ROW_SPACING * 1.05 * fontsize / 72 / A4[1]        # one line, in page fractions
+    gap = 0.35 * line
     if title:
         fig.text(0.06, y, title, fontsize=FONT["heading"], weight="bold", va="top")
         y -= 0.026
-    labels, texts, more = [], [], 0
     for k, (label, value) in enumerate(rows):
         label_lines, value_lines = key_value_lines(label, value, wrap)
-        if y - line * (len(texts) + len(value_lines) + (k < len(rows) - 1)) < floor:
-            more = len(rows) - k
-            break
-        labels += label_lines
-        texts += value_lines
-    for x, column, weight in ((0.06, labels, "bold"), (0.3, texts, "normal")):
-        fig.text(x, y, "\n".join(column), fontsize=fontsize, weight=weight, va="top", linespacing=ROW_SPACING)
-    y -= line * len(texts)
-    if more:
-        fig.text(0.06, y, f"… {more} more lines in summary.json", fontsize=FONT["small"], style="italic", va="top")
-        y -= line
-    return y - 0.4 * line
+        if y - line * (len(value_lines) + (k < len(rows) - 1)) < floor:
+            fig.text(0.06, y, f"… {len(rows) - k} more lines in summary.json", fontsize=FONT["small"],
+                     style="italic", va="top")
+            return y - line - gap
+        fig.text(0.06, y, label, fontsize=fontsize, weight="bold", va="top")
+        fig.text(0.31, y, "\n".join(value_lines), fontsize=fontsize, va="top", linespacing=ROW_SPACING)
+        y -= line * len(value_lines) + gap
+    return y - gap
 
 
 def _bullets(fig, title: str | None, items: list[str], y: float, *, limit: int = 8, floor: float = 0.0) -> float:
@@ -135,11 +159,13 @@ def time_page(result):
     key, torque = recorded_torque(result)
     axes[1].plot(*envelope(trial.time, torque), lw=0.6, color="C1")
     axes[1].set_ylabel(f"{word[key]} [{u[key]}]")
-    plot_stiffness(result, ax=axes[2])
+    plot_stiffness(result, ax=axes[2], per_cycle=False, legend=False)
+    axes[2].fill_between([], [], [], color="0.88", lw=0, label="not informed by motion")
+    axes[2].legend(loc="upper left", ncols=4)
     for ax in axes[:2]:
         ax.tick_params(labelbottom=False)
     axes[2].set_title(f"{result.variant} variant, {result.estimator} estimator; grey: not informed by motion "
-                      "(no estimate there, only the model's drift)", fontsize=FONT["small"], loc="right")
+                      "(no estimate drawn there)", fontsize=FONT["small"], loc="right")
     return fig
 
 

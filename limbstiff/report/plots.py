@@ -12,6 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..digest import cycle_course
 from ..estimate.angle_terms import AngleCourse, AngleTerms, angle_course, fit_angle_terms
 from ..estimate.observer import informed_samples
 from ..statespace.steps import kalman_decimation, model_steps
@@ -52,7 +53,7 @@ def recorded_torque(result) -> tuple[str, np.ndarray]:
     return "torque", trial.torque
 
 
-def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = True):
+def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = True, per_cycle: bool = True):
     """The stiffness over time with its band; stretches not informed by motion shaded grey.
 
     Parameters
@@ -63,6 +64,12 @@ def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = Tr
     reference : bool
         Draw the reference stiffness (``stiffness_true`` or a calibration) when there is one.
     legend : bool
+        Above the axes, in as many columns as its width holds.
+    per_cycle : bool
+        Draw the course at the resolution the data support: one median per motion cycle with the
+        band typical for it (:func:`limbstiff.digest.cycle_course`, which says why), as page 1
+        does; False draws every sample (page 2). Either way nothing is drawn where the samples are
+        not informed by motion or lie at the filter's edges.
 
     Returns
     -------
@@ -71,18 +78,21 @@ def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = Tr
     ax = _axes(ax)
     t, u = result.trial.time, result.trial.units
     shade_false(ax, t, result.observable)
-    ax.fill_between(*envelope_band(t, result.stiffness_lo, result.stiffness_hi), color="C0", alpha=0.3, lw=0,
-                    label=f"{100 * result.ci_level:.0f} % band")
-    ax.plot(*envelope(t, result.stiffness), lw=0.8, color="C0", label="estimate")
+    if per_cycle:
+        course = cycle_course(result)
+        ax.fill_between(course.time, course.lo, course.hi, color="C0", alpha=0.3, lw=0,
+                        label=f"{100 * result.ci_level:.0f} % band")
+        ax.plot(course.time, course.stiffness, lw=1.0, color="C0", marker="o", ms=2.2,
+                label=f"median over each motion cycle ({course.seconds:.3g} s)")
+        values = [course.stiffness, course.lo, course.hi]
+    else:
+        values = _per_sample(ax, result)
     show_ref = reference and result.reference is not None
     if show_ref:
         ax.plot(*envelope(t, result.reference), lw=0.9, color="k", ls="--", label="reference")
-    obs = np.flatnonzero(informed_samples(result.observable))
-    obs = obs[::max(1, obs.size // LIMIT_VALUES)]
-    values = [result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs]]
-    if show_ref:
-        values.append(result.reference[obs])
-    limits = robust_limits(np.concatenate(values), pad=0.2)
+        obs = np.flatnonzero(informed_samples(result.observable))
+        values.append(result.reference[obs[::max(1, obs.size // LIMIT_VALUES)]])
+    limits = robust_limits(np.concatenate(values), pad=0.2, pct=(0, 100) if per_cycle else (1, 99))
     if limits is not None:
         ax.set_ylim(*limits)
     ax.set_xlim(t[0], t[-1])
@@ -90,8 +100,38 @@ def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = Tr
     ax.set_ylabel(f"stiffness [{u['stiffness']}]")
     if legend:
         ax.fill_between([], [], [], color="0.88", lw=0, label="not informed by motion")
-        ax.legend(loc="upper left", ncols=4 if show_ref else 3)
+        _legend_above(ax)
     return ax
+
+
+def _per_sample(ax, result) -> list[np.ndarray]:
+    """Every sample's estimate and band, blank where not informed (or at the filter's edges); the
+    values the axis limits are taken from."""
+    t = result.trial.time
+    use = np.asarray(result.observable, bool).copy()
+    edge = int(getattr(result.filtered, "edge", 0) or 0)
+    if edge:
+        use[:edge] = use[use.size - edge:] = False
+    if not use.any():
+        use[:] = True                               # nothing informed: draw it all, all shaded grey
+    stiffness, lo, hi = (np.where(use, x, np.nan) for x in (result.stiffness, result.stiffness_lo,
+                                                            result.stiffness_hi))
+    ax.fill_between(*envelope_band(t, lo, hi), color="C0", alpha=0.3, lw=0,
+                    label=f"{100 * result.ci_level:.0f} % band")
+    ax.plot(*envelope(t, stiffness), lw=0.8, color="C0", label="estimate")
+    obs = np.flatnonzero(use)
+    obs = obs[::max(1, obs.size // LIMIT_VALUES)]
+    return [result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs]]
+
+
+def _legend_above(ax) -> None:
+    """The legend in a row (or two) just above the axes, never over the data or a neighbour."""
+    handles, labels = ax.get_legend_handles_labels()
+    fig = ax.get_figure()
+    width_in = ax.get_position().width * fig.get_figwidth()
+    columns = max(1, min(len(labels), int(width_in // 1.9)))
+    ax.legend(handles, labels, loc="lower left", bbox_to_anchor=(0.0, 1.01), ncols=columns, frameon=False,
+              borderaxespad=0.0, handlelength=1.6, columnspacing=1.2)
 
 
 class RelationBins(NamedTuple):
