@@ -1,7 +1,12 @@
 """limbstiff: non-invasive stiffness measurement of limbs and variable-stiffness actuators.
 
 Built on the stiffness observer of Grioli & Bicchi (RSS 2010). The public API is imported
-lazily so that ``import limbstiff`` (and ``limbstiff --help``) stay fast.
+lazily so that ``import limbstiff`` (and ``limbstiff --help``) stay fast; ``dir(limbstiff)`` and
+``__all__`` list it::
+
+    import limbstiff
+    result = limbstiff.analyze("examples/elbow.csv", "protocols/elbow-lab.toml")
+    result.to_frame()
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ _API = {
     "analyze_files": "limbstiff.batch.jobs",
     "identify_files": "limbstiff.batch.jobs",
     "diagnose": "limbstiff.diagnosis.run",
+    "diagnose_files": "limbstiff.diagnosis.run",
 }
 
 __all__ = ["__version__", *_API]
@@ -35,3 +41,8 @@ def __getattr__(name: str):
     if name in _API:
         return getattr(importlib.import_module(_API[name]), name)
     raise AttributeError(f"module 'limbstiff' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    """The public API (:data:`__all__`), as ``dir(limbstiff)`` and tab completion show it."""
+    return sorted(__all__)

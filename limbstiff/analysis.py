@@ -4,12 +4,14 @@
 (protocol, then explicit arguments), derives what the protocol leaves open from the trial's
 own data (filter bandwidth, observer gain, velocity threshold, observability window, and —
 for the external-torque variant — inertia and damping), runs the estimator and returns a
-:class:`~limbstiff.result.StiffnessResult`. No file I/O here.
+:class:`~limbstiff.result.StiffnessResult`. No file is written here; a trial or protocol given as
+a path is read through :mod:`limbstiff.files`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import os
 from typing import Sequence
 
 import numpy as np
@@ -34,9 +36,10 @@ from .estimate.informed import band_informed, uninformed_band
 from .statespace.noise import NoiseLevels
 from .statespace.steps import kalman_decimation, step_index
 from .filtered import Filtered, filter_trial
+from .files import read_trial
 from .mechanics.effect_terms import EffectTerms
 from .mechanics.identification import Identification, identify_mechanics
-from .protocol import Protocol
+from .protocol import Protocol, load_protocol
 from .result import DerivedSettings, StiffnessResult, result_units, software
 from .trial import Trial
 from .trial_level import FigureSamples, TrialLevel, course_draws_for, figure_samples, trial_level
@@ -359,8 +362,18 @@ def _warnings(trial: Trial, ident: Identification | None, observable: np.ndarray
     return tuple(warnings)
 
 
+def trial_and_protocol(trial: Trial | str | os.PathLike,
+                       protocol: Protocol | str | os.PathLike | None) -> tuple[Trial, Protocol]:
+    """The trial and protocol :func:`analyze` is given, files read: the protocol's TOML file first,
+    then the trial's file with it (:func:`limbstiff.files.read_trial`)."""
+    if isinstance(protocol, (str, os.PathLike)):
+        protocol = load_protocol(protocol)
+    protocol = protocol or Protocol()
+    return (read_trial(trial, protocol) if isinstance(trial, (str, os.PathLike)) else trial), protocol
+
+
 @one_blas_thread
-def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | None = None,
+def analyze(trial: Trial | str | os.PathLike, protocol: Protocol | str | os.PathLike | None = None, *, inertia: float | None = None,
             damping: float | None = None, observer_gain: float | None = None,
             estimator: str | None = None, seed: int = 0,
             reference: np.ndarray | None = None, effects: Sequence[str] | None = None) -> StiffnessResult:
@@ -368,9 +381,10 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
 
     Parameters
     ----------
-    trial : Trial
-    protocol : Protocol, optional
-        Settings of the set-up; defaults derive everything from the data.
+    trial : Trial, str or path-like
+        The trial, or its file (read by :func:`limbstiff.files.read_trial` with the protocol).
+    protocol : Protocol, str or path-like, optional
+        Settings of the set-up, or its TOML file; defaults derive everything from the data.
     inertia : float, optional, kg·m² (kg)
         Fixes m (overrides the protocol).
     damping : float, optional, N·m·s/rad (N·s/m)
@@ -399,7 +413,8 @@ def analyze(trial: Trial, protocol: Protocol | None = None, *, inertia: float | 
     TrialError
         When the trial cannot give a stiffness (no motion, missing channel…).
     """
-    protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping, observer_gain=observer_gain,
+    trial, protocol = trial_and_protocol(trial, protocol)
+    protocol = protocol.override(inertia=inertia, damping=damping, observer_gain=observer_gain,
                                                  estimator=estimator,
                                                  effects=None if effects is None else tuple(effects))
     where = _where(trial)
