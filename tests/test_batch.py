@@ -299,3 +299,28 @@ def test_a_failed_trial_is_named_on_stderr_with_why(trial_file, tmp_path):
     assert res.exit_code == 1
     failed = [line for line in res.output.splitlines() if "FAILED" in line]
     assert len(failed) == 1 and "bad" in failed[0] and "bad.csv" in failed[0] and "no motion" in failed[0]
+
+
+def test_interface_lists_summary_csv_columns_in_their_order():
+    import re
+    from limbstiff.batch.table import SUMMARY_COLUMNS
+    doc = (Path(__file__).parent.parent / "docs" / "interface.md").read_text(encoding="utf-8")
+    listed = doc.split("`summary.csv` columns, in this order:")[1].split("then `meta.<key>`")[0]
+    names = re.findall(r"`([a-z_]+)`", re.sub(r"\([^)]*\)", "", listed))
+    assert tuple(names) == SUMMARY_COLUMNS
+
+
+def test_overview_of_mixed_kinds_says_so_in_its_title():
+    from limbstiff.report.batch import batch_figures
+    rows = [{"trial": name, "status": "ok", "kind": kind, "units": {"stiffness": unit, "inertia": m, "damping": b},
+             "stiffness": {"median": 10.0, "lo": 9.0, "hi": 11.0}, "inertia": {"median": 0.1, "lo": 0.09, "hi": 0.11},
+             "damping": {"median": 1.0, "lo": 0.9, "hi": 1.1}, "observable_fraction": 0.9, "verdict": "ok",
+             "metadata": {}}
+            for name, kind, unit, m, b in (("a", "rotational", "N·m/rad", "kg·m²", "N·m·s/rad"),
+                                           ("b", "translational", "N/m", "kg", "N·s/m"))]
+    import matplotlib.pyplot as plt
+    figures = batch_figures(rows)
+    texts = [t.get_text() for fig in figures for t in fig.texts]
+    for fig in figures:
+        plt.close(fig)
+    assert any("different kinds" in t for t in texts)

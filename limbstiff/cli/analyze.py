@@ -36,8 +36,10 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 @click.option("--resume", is_flag=True,
               help="Skip trials whose outputs are complete and match the input's SHA-256 and the settings.")
 @reports_errors
-def command(paths, protocol_path, out, jobs, scheduler, seed, no_pdf, inertia, damping, observer_gain, estimator,
-            effects, reference_path, sort_by, overwrite, resume):
+def command(paths: tuple[str, ...], protocol_path: str | None, out: str, jobs: int | None, scheduler: str | None,
+            seed: int, no_pdf: bool, inertia: float | None, damping: float | None, observer_gain: float | None,
+            estimator: str | None, effects: tuple[str, ...], reference_path: str | None, sort_by: str,
+            overwrite: bool, resume: bool) -> None:
     """Estimate the stiffness of every trial in PATHS (files, folders, globs)."""
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
     from ..batch.jobs import analyze_files, check_reference

@@ -17,7 +17,8 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 @seed_option
 @overwrite_option
 @reports_errors
-def command(paths, protocol_path, out, jobs, scheduler, seed, overwrite):
+def command(paths: tuple[str, ...], protocol_path: str | None, out: str, jobs: int | None, scheduler: str | None,
+            seed: int, overwrite: bool) -> None:
     """Identify inertia and damping of every trial in PATHS; write posterior.json and draws.csv."""
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
     from ..batch.cluster import dask_executor

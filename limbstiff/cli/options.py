@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import functools
 import sys
+from typing import TYPE_CHECKING, NoReturn
 
 import click
 
 from ..errors import LimbstiffError
+
+if TYPE_CHECKING:
+    from ..batch.jobs import BatchReport
 
 EXIT_OK, EXIT_SOME_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -30,12 +34,12 @@ scheduler_option = click.option(
          "pip install 'limbstiff[dask]'.")
 
 
-def finish(report):
+def finish(report: BatchReport) -> NoReturn:
     """Say how the batch went and exit with docs/interface.md's status: paths that matched nothing
     (one line each, with why), warnings, notes, then the tally."""
-    for why in getattr(report, "missing", ()):
+    for why in report.missing:
         click.echo(f"limbstiff: error: {why}", err=True)
-    for warning in getattr(report, "warnings", ()):
+    for warning in report.warnings:
         click.echo(f"limbstiff: warning: {warning}", err=True)
     for note in report.notes:
         click.echo(f"limbstiff: note: {note}", err=True)
@@ -60,7 +64,7 @@ def out_option(default: str):
                         show_default=True, help="Output folder.")
 
 
-def fail(message: str, status: int = EXIT_USAGE):
+def fail(message: str, status: int = EXIT_USAGE) -> NoReturn:
     """Print a one-line error on stderr and exit with ``status``."""
     click.echo(f"limbstiff: error: {' '.join(str(message).split())}", err=True)
     sys.exit(status)
