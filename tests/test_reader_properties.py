@@ -2,6 +2,7 @@
 and corruptions give a one-line TrialError or a trial that says what it did, never a traceback."""
 
 import hashlib
+import re
 
 import numpy as np
 from hypothesis import HealthCheck, given, settings
@@ -17,6 +18,8 @@ HEADERS = {
     "parentheses": (("Time (s)", 1.0), ("Angle (deg)", 180 / np.pi), ("Torque (Nm)", 1.0)),
     "brackets": (("time [s]", 1.0), ("angle [rad]", 1.0), ("torque [N·m]", 1.0)),
 }
+#: Control characters (C0, DEL, C1): a message never holds one, whatever the file does.
+CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 # derandomize: the same examples on every run (a seeded test, as the rest of the suite)
 SETTINGS = settings(max_examples=60, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -116,7 +119,7 @@ def test_corruptions_never_give_a_traceback_or_a_silent_change(tmp_path, table, 
         trial = read_trial(path)
     except TrialError as exc:
         message = str(exc)
-        assert "trial.csv" in message and "\n" not in message
+        assert "trial.csv" in message and not CONTROL.search(message), message   # one printable line
         return
     # accepted: it must be finite, carry the corrupted file's hash, and only differ from the table
     # where the corruption could not be seen (a changed digit, a cut-off last row)
@@ -126,3 +129,18 @@ def test_corruptions_never_give_a_traceback_or_a_silent_change(tmp_path, table, 
     assert how in ("byte_flip", "truncated", "empty_line_block"), f"{how} was accepted silently"
     if how == "empty_line_block":
         np.testing.assert_allclose(trial.angle, table["angle"], rtol=1e-12, atol=1e-15)
+
+
+@SETTINGS
+@given(raw=st.binary(max_size=3000), suffix=st.sampled_from([".csv", ".tsv", ".txt", ".xlsx", ".mat"]),
+       lead=st.sampled_from([b"", b"time_s,angle_rad,torque_Nm\n", b"\x89PNG\r\n\x1a\n", b"PK\x03\x04"]))
+def test_bytes_that_are_no_trial_give_one_printable_line(tmp_path, raw, suffix, lead):
+    path = tmp_path / f"trial{suffix}"
+    path.write_bytes(lead + raw)
+    try:
+        read_trial(path)
+    except TrialError as exc:
+        message = str(exc)
+        assert message.startswith(f"{path}: ") and not CONTROL.search(message), message
+    else:                                   # a few bytes can never make a valid trial (64 samples, 0.5 s)
+        raise AssertionError("bytes read as a trial")

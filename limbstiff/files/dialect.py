@@ -21,8 +21,10 @@ _NAMES = {",": "','", ";": "';'", "\t": "tabs"}
 SNIFF_LINES = 50
 #: Characters of a decoded file looked at for control characters (binary data).
 SNIFF_CHARS = 65536
-#: Control characters no text trial holds (C0 but tab, line feed, form feed, carriage return; DEL).
-CONTROL = re.compile(r"[\x00-\x08\x0b\x0e-\x1f\x7f]")
+#: Control characters no text trial holds (C0 but tab, line feed and carriage return; DEL; C1).
+CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")
+#: Every control character, tab and line ends included: none is ever quoted in a message.
+ANY_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 #: What a binary file that is not text starts with, and what it is.
 _MAGIC = ((b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"GIF8", "a GIF image"),
           (b"%PDF", "a PDF document"), (b"PK\x03\x04", "a ZIP archive, or an .xlsx workbook"),
@@ -94,8 +96,7 @@ class TextLayout(NamedTuple):
 def shown(cell: str, limit: int = 30) -> str:
     """A file's text as a message may quote it: at most ``limit`` characters, control characters
     written as ``\\xNN`` (a message is one printable line whatever the file holds)."""
-    cell = cell[:limit]
-    return CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", cell.replace("\n", " ").replace("\r", " "))
+    return ANY_CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", cell[:limit])
 
 
 def detect_layout(where: str, header_line: str, rest: list, protocol) -> TextLayout:

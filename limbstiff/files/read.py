@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Callable
 from ..errors import TrialError
 from ..frozen import FrozenDict
 from ..trial import Trial
+from .dialect import ANY_CONTROL, shown
 from .validate import read_bytes
 
 if TYPE_CHECKING:
@@ -121,4 +122,10 @@ def read_trial(path, protocol: Protocol | None = None, *, name: str | None = Non
         accepted = ", ".join(EXTENSIONS)
         raise TrialError(str(path), f"unknown file type '{path.suffix or '(no extension)'}' "
                                     f"(accepted: {accepted})")
-    return file_type.read(path, read_bytes(path), protocol, name)
+    try:
+        return file_type.read(path, read_bytes(path), protocol, name)
+    except TrialError as exc:
+        if not ANY_CONTROL.search(exc.problem):
+            raise
+        # a header or cell quoted from the file held a control character: one printable line still
+        raise TrialError(exc.source, shown(exc.problem, len(exc.problem))) from None
