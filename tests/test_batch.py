@@ -324,3 +324,15 @@ def test_overview_of_mixed_kinds_says_so_in_its_title():
     for fig in figures:
         plt.close(fig)
     assert any("different kinds" in t for t in texts)
+
+
+def test_a_file_where_a_trials_folder_goes_is_one_line(trial_file, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "t1").write_text("x")
+    for extra in ([], ["--overwrite"]):
+        res = run("analyze", trial_file("t1"), "--out", out, "--no-pdf", "--jobs", 1, *extra)
+        lines = res.output.strip().splitlines()
+        assert res.exit_code == 2 and len(lines) == 1 and "Traceback" not in res.output, res.output
+        assert str(out) in lines[0] and "t1" in lines[0] and "--out" in lines[0]
+    assert (out / "t1").read_text() == "x" and not (out / "summary.csv").exists()

@@ -132,9 +132,15 @@ def refuse_other_outputs(jobs: Sequence[BatchJob[JobOptions]], out: Path, *, mar
     ------
     OutputExists
         One line naming the folder and what to do.
+    OutputPathError
+        A file stands where a trial's output folder goes (with ``--overwrite`` too).
     """
-    from ..files.outputs import OutputExists
+    from ..files.outputs import OutputExists, OutputPathError
 
+    blocked = [job.name for job in jobs if job.out.exists() and not job.out.is_dir()]
+    if blocked:
+        raise OutputPathError(f"{out}: cannot write the outputs of {_names(blocked)} (a file is there, not a folder); "
+                              "move it or choose another --out")
     if not jobs or jobs[0].options.overwrite:
         return
     stale: dict[str, list[str]] = {}
