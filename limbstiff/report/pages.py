@@ -181,7 +181,9 @@ def relation_page(result):
     figure = angle_figure(result)
     gs = grid(fig, 3 if figure is not None else 2, 1, hspace=0.45 if figure is not None else 0.25)
     for k, against in enumerate(("angle", "torque")):
-        plot_relation(result, against, ax=fig.add_subplot(gs[k]), legend=k == 0)   # the same symbols
+        ax = plot_relation(result, against, ax=fig.add_subplot(gs[k]), legend=False)
+        if k == 0:                                   # the same symbols on both; "best" is slow on a scatter
+            ax.legend(loc="upper right", framealpha=0.85)
     fig.axes[0].set_title("black: median of the estimate in bins of equal counts, bars: the median "
                           f"{100 * result.ci_level:.0f} % band there; blue: 10th–90th percentile of the estimate "
                           "in the bin (its change over the trial)", fontsize=FONT["small"], loc="left", wrap=True)

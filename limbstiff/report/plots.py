@@ -83,7 +83,7 @@ def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = Tr
         ax.fill_between(course.time, course.lo, course.hi, color="C0", alpha=0.3, lw=0,
                         label=f"{100 * result.ci_level:.0f} % band")
         ax.plot(course.time, course.stiffness, lw=1.0, color="C0", marker="o", ms=2.2,
-                label=f"median over each motion cycle ({course.seconds:.3g} s)")
+                label="median per motion cycle")
         values = [course.stiffness, course.lo, course.hi]
     else:
         values = _per_sample(ax, result)
@@ -96,11 +96,11 @@ def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = Tr
     if limits is not None:
         ax.set_ylim(*limits)
     ax.set_xlim(t[0], t[-1])
-    ax.set_xlabel("time [s]")
+    ax.set_xlabel(f"time [s]  (a point per motion cycle of {course.seconds:.3g} s)" if per_cycle else "time [s]")
     ax.set_ylabel(f"stiffness [{u['stiffness']}]")
     if legend:
         ax.fill_between([], [], [], color="0.88", lw=0, label="not informed by motion")
-        _legend_above(ax)
+        legend_above(ax)
     return ax
 
 
@@ -124,14 +124,34 @@ def _per_sample(ax, result) -> list[np.ndarray]:
     return [result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs]]
 
 
-def _legend_above(ax) -> None:
-    """The legend in a row (or two) just above the axes, never over the data or a neighbour."""
+#: Width of a legend entry besides its label (handle and spacing), in font sizes; of one character
+#: of a label, on average (a generous estimate: a legend too wide for its axes is worse than a row more).
+LEGEND_HANDLE_EM, LEGEND_CHAR_EM = 3.2, 0.62
+
+
+def legend_columns(labels: list[str], width_in: float, fontsize: float) -> int:
+    """The most columns (filled column by column, as matplotlib does) whose estimated width fits
+    ``width_in`` inches of axes at ``fontsize`` pt; 1 at least."""
+    em = fontsize / 72
+    for n in range(len(labels), 1, -1):
+        rows = -(-len(labels) // n)
+        columns = [labels[j * rows:(j + 1) * rows] for j in range(n)]
+        width = sum(LEGEND_HANDLE_EM * em + LEGEND_CHAR_EM * em * max(map(len, c)) for c in columns if c)
+        if width <= width_in:
+            return n
+    return 1
+
+
+def legend_above(ax) -> None:
+    """The legend in as few rows as fit just above the axes: never over the data, nor wider than the
+    axes (into a neighbouring plot)."""
+    import matplotlib
     handles, labels = ax.get_legend_handles_labels()
-    fig = ax.get_figure()
-    width_in = ax.get_position().width * fig.get_figwidth()
-    columns = max(1, min(len(labels), int(width_in // 1.9)))
-    ax.legend(handles, labels, loc="lower left", bbox_to_anchor=(0.0, 1.01), ncols=columns, frameon=False,
-              borderaxespad=0.0, handlelength=1.6, columnspacing=1.2)
+    width_in = ax.get_position().width * ax.get_figure().get_figwidth()
+    fontsize = matplotlib.font_manager.FontProperties(size=matplotlib.rcParams["legend.fontsize"]).get_size_in_points()
+    ax.legend(handles, labels, loc="lower left", bbox_to_anchor=(0.0, 1.01),
+              ncols=legend_columns(labels, width_in, fontsize), frameon=False, borderaxespad=0.0, handlelength=1.6,
+              columnspacing=1.0)
 
 
 class RelationBins(NamedTuple):
@@ -203,7 +223,7 @@ def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATI
     ax : matplotlib.axes.Axes, optional
     bins : int
     legend : bool
-        Draw the legend (a page of two such plots draws it once).
+        Draw the legend, above the axes (a page of two such plots draws its own).
 
     Returns
     -------
@@ -232,7 +252,7 @@ def plot_relation(result, against: str = "angle", *, ax=None, bins: int = RELATI
     if limits is not None:
         ax.set_ylim(*limits)
     if legend:
-        ax.legend(loc="upper right", framealpha=0.85)   # "best" scans every point: slow on a dense scatter
+        legend_above(ax)
     return ax
 
 
