@@ -126,5 +126,5 @@ def test_xls_and_damaged_workbooks_are_one_line_errors(tmp_path):
     expect_error(old_named_new, "not an .xlsx workbook (it looks like an old Office file, such as an .xls workbook)")
 
 
-def test_workbooks_are_read_when_named_not_searched_for():
-    assert ".xlsx" in EXTENSIONS and ".xlsx" not in FOLDER_EXTENSIONS and ".xls" not in EXTENSIONS
+def test_folders_are_searched_for_workbooks():
+    assert ".xlsx" in EXTENSIONS and ".xlsx" in FOLDER_EXTENSIONS and ".xls" not in EXTENSIONS

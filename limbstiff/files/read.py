@@ -71,11 +71,11 @@ class FileType:
 
 
 #: Accepted extensions (lower case) and their file types, in the order error messages list them.
-#: ``.txt`` and ``.xlsx`` are read when named but not searched for: a data folder's README.txt,
-#: notes or subject list would otherwise become failed trials.
+#: ``.txt`` is read when named but not searched for: a data folder's README.txt or notes would
+#: otherwise become failed trials.
 EXTENSIONS = FrozenDict({".csv": FileType(_read_text), ".tsv": FileType(_read_text),
                          ".txt": FileType(_read_text, in_folders=False), ".mat": FileType(_read_mat),
-                         ".c3d": FileType(_read_c3d), ".xlsx": FileType(_read_xlsx, in_folders=False)})
+                         ".c3d": FileType(_read_c3d), ".xlsx": FileType(_read_xlsx)})
 #: Extensions of trial formats that are not read, and what to do instead.
 REFUSED = FrozenDict({".xls": "an old binary Excel workbook (.xls) is not read: save it as .xlsx or .csv"})
 #: The extensions a batch searches folders for.
