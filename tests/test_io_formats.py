@@ -431,8 +431,15 @@ def test_utf16_text_as_excel_saves_unicode_text(tmp_path):
     path = tmp_path / "unicode.txt"
     path.write_bytes(("Zeit (s)\tWinkel (°)\tMoment (Nm)\n" + text_rows([t, np.degrees(a), tau], "\t"))
                      .encode("utf-16"))
-    read = read_trial(path, proto(time={"header": "Zeit"}, angle={"header": "Winkel"}, torque={"header": "Moment"}))
+    mapping = dict(time={"header": "Zeit"}, angle={"header": "Winkel"}, torque={"header": "Moment"})
+    read = read_trial(path, proto(**mapping))
     np.testing.assert_allclose(read.angle, a, rtol=1e-12, atol=1e-15)
+    # without its byte-order mark: said so, with the setting that reads it
+    path.write_bytes(path.read_bytes()[2:])
+    expect_error(path, 'it looks like UTF-16 without a byte-order mark; set [format] encoding = "utf-16-le"',
+                 proto(**mapping))
+    given = protocol_from_dict({"columns": mapping, "format": {"encoding": "utf-16-le"}})
+    np.testing.assert_array_equal(read_trial(path, given).angle, read.angle)
 
 
 def test_a_binary_file_fails_its_trial_like_any_unreadable_one(tmp_path):

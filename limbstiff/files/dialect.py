@@ -62,6 +62,11 @@ def binary_kind(where: str, raw: bytes, text: str | None = None) -> None:
         kind = "it holds binary data"
     elif kind is None and text is None and b"\x00" in raw[:SNIFF_CHARS]:
         kind = "it holds binary data"
+        head = raw[:2000]
+        for order, zeros in (("le", head[1::2]), ("be", head[0::2])):
+            if len(zeros) > 8 and zeros.count(0) == len(zeros):
+                raise TrialError(where, f"not UTF-8 text: it looks like UTF-16 without a byte-order mark; "
+                                        f"set [format] encoding = \"utf-16-{order}\" in a protocol, or export UTF-8")
     elif kind is not None:
         kind = f"it looks like {kind}"
     if kind is not None:
