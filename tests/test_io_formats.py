@@ -464,3 +464,16 @@ def test_a_binary_file_fails_its_trial_like_any_unreadable_one(tmp_path):
 def res_output(out: Path) -> str:
     """The error column of a batch's summary.csv."""
     return (out / "summary.csv").read_text(encoding="utf-8")
+
+
+def test_a_mat_variable_is_found_by_its_name_without_the_unit(tmp_path):
+    t, a, tau = signals()
+    path = tmp_path / "lab.mat"
+    sio.savemat(path, {"Zeit_ms": t * 1e3, "Winkel_deg": np.degrees(a), "Moment_Nm": tau})
+    mapping = dict(time={"header": "Zeit"}, angle={"header": "Winkel"}, torque={"header": "Moment", "scale": -1.0})
+    read = read_trial(path, proto(**mapping))
+    np.testing.assert_allclose(read.time, t, atol=1e-12)
+    np.testing.assert_allclose(read.angle, a, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(read.torque, -tau, rtol=1e-12)
+    expect_error(path, "variable 'Zeit_ms': the protocol says unit 's', its name says 'ms'",
+                 proto(**{**mapping, "time": {"header": "Zeit", "unit": "s"}}))

@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import TrialError
 from ..trial import Trial
 from .columns import ColumnSpec, joint_kind, resolve_columns
-from ..units import FIELDS, parse_standard_header, to_si
+from ..units import FIELDS, parse_standard_header, split_header, to_si
 from .validate import checked_trial
 
 #: Names (any case) of scalar variables giving the sample rate in Hz.
@@ -110,7 +110,10 @@ def _protocol_arrays(where: str, variables: dict, protocol) -> tuple[dict[str, n
         True when the protocol maps time or a variable has a standard time name.
     """
     mapped = {f: c.header.strip() for f, c in protocol.columns.items() if c.header} if protocol else {}
-    arrays = {expr: _lookup(where, variables, expr) for expr in mapped.values()}
+    names = {split_header(v)[0] for v in variables}
+    # a plain name of a variable with a unit ('Zeit' for 'Zeit_ms') is found by resolve_columns
+    arrays = {expr: _lookup(where, variables, expr) for expr in mapped.values()
+              if expr in variables or expr not in names}
     has_time = "time" in mapped or any((parse_standard_header(v) or ("",))[0] == "time" for v in variables)
     return arrays, has_time
 
