@@ -185,7 +185,13 @@ class StiffnessResult:
                 f"verdict {self.verdict or '—'}, {100 * self.observable_fraction:.0f} % informed>")
 
     def to_frame(self):
-        """The per-sample table of ``stiffness.csv`` as a :class:`pandas.DataFrame`."""
+        """The per-sample table of ``stiffness.csv`` as a :class:`pandas.DataFrame`.
+
+        One row per sample; columns, in order: ``time_s`` (s); ``stiffness`` (the estimate, N·m/rad,
+        or N/m for a translational trial); ``stiffness_lo``, ``stiffness_hi`` (the same unit: the
+        band's bounds at :attr:`ci_level`; ``stiffness_hi`` is inf where the band is unbounded);
+        ``observable`` (int: 1 where the sample is informed by motion, 0 elsewhere).
+        """
         import pandas as pd
 
         return pd.DataFrame({
