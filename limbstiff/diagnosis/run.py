@@ -76,7 +76,8 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     effects : dict of str to ModelEffect, optional
         The candidate library (default :data:`candidates.CANDIDATES`).
     results : sequence of StiffnessResult, optional
-        The trials' analyses with ``protocol`` (and the overrides), when already done.
+        The trials' analyses with ``protocol`` (and the overrides), when already done, without
+        effects in the model (the protocol's ``effects`` are not the nominal model's).
 
     Returns
     -------
@@ -412,7 +413,7 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     from ..batch.runner import BatchJob, run_jobs, run_one
     from ..files.outputs import write_json
 
-    protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping)
+    protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping, effects=())   # as diagnose's
     missing: list[tuple[str, str]] = []
     files = discover(paths, missing=missing)
     if not files:
