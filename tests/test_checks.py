@@ -241,3 +241,88 @@ def test_the_carried_stiffness_is_held_beyond_the_fitted_angles():
     assert elastic(-1.0) - elastic(-3.0) == pytest.approx(4.0, rel=1e-12)
     assert elastic(3.0) - elastic(1.0) == pytest.approx(4.0, rel=1e-12)
     assert np.allclose(np.diff(elastic(np.array([0.999999, 1.0, 1.000001]))), 2e-6, rtol=1e-5)
+
+
+# --- issue 34 item 5: detection ≥ 90 % of trials more than 20 % off, false alarms ≤ 5 % --------------
+# Seeds here are neither the benchmark's (1–5; suite seeds 7300–7600) nor, where a threshold is
+# concerned, those it was argued on (101–102; suite seeds 7100, 7200), unless said.
+
+
+def test_the_band_width_limit_is_where_a_calibrated_band_expects_the_fitting_error():
+    """BAND_WIDTH_MAX follows from the band's definition: a calibrated Gaussian 90 % band of relative
+    width w has median |error| Φ⁻¹(0.75)/Φ⁻¹(0.95)·w/2; at the limit that is FITS (10 %)."""
+    from scipy import stats
+
+    from limbstiff.checks.verdict import BAND_WIDTH_MAX, FITS
+    ratio = stats.norm.ppf(0.75) / stats.norm.ppf(0.95)
+    assert BAND_WIDTH_MAX * ratio / 2 == pytest.approx(FITS, rel=1e-3)
+    # and by sampling: errors drawn with the sd of such a band (half-width 1.645 sd); 10⁵ draws put
+    # the sample median within ±1 % of itself (its standard error is 0.4 %), so ±2 % both ways
+    rng = np.random.default_rng(5)
+    sd = BAND_WIDTH_MAX / 2 / stats.norm.ppf(0.95)
+    assert np.median(np.abs(rng.normal(0.0, sd, 100_000))) == pytest.approx(FITS, rel=0.02)
+
+
+def test_hysteresis_on_the_platform_ankle_is_flagged():
+    """Dahl hysteresis on the platform's binary steps saturates within each step and adds a torque
+    that steps with the angle: the stiffness reads 30–35 % high (seeds 101–102: 33 %) and every
+    residual check passes, but the stiffness walk takes the transitions up and the band widens to
+    0.8–0.9 of the stiffness (clean: 0.04), beyond what a fit to 10 % allows."""
+    result = limbstiff.analyze(simulate("ankle-platform", seed=43, params={"duration": 20.0},
+                                        effect="hysteresis"), seed=43)
+    assert result.reference_error()["median"] > 0.2            # the flag is deserved
+    assert "band_width_relative" in _failed(result) and result.verdict != OK
+
+
+def test_the_platform_ankle_clean_keeps_a_narrow_band():
+    result = limbstiff.analyze(simulate("ankle-platform", seed=43, params={"duration": 20.0}), seed=43)
+    assert result.verdict == OK, result.checks.reasons
+    assert result.checks["band_width_relative"].value < 0.1      # measured 0.04 on seeds 101–102
+
+
+def test_a_pause_does_not_count_against_the_residual():
+    """The paper's antagonistic exponential springs, 20 s: the torque stops at 10 s and the free
+    motion dies out within 1.5 s. Over every step the noise-free residual of that decay made the
+    innovations' autocorrelation 0.80 (seeds 101–102, threshold 0.8); over the steps the motion
+    informs, 0.74, and the verdict is ok (the stiffness is 2.6 % off)."""
+    result = limbstiff.analyze(simulate("paper-vsa-exp", seed=43, params={"duration": 20.0}), seed=43)
+    assert result.reference_error()["median"] < 0.05
+    assert result.verdict == OK, result.checks.reasons
+    assert result.checks["residual_whiteness"].value < WHITENESS_MAX - 0.02
+
+
+def test_innovation_statistics_over_every_informed_step_are_those_over_all(elbow_result):
+    from limbstiff.checks.model import innovation_statistics
+    ident = elbow_result.identification
+    kw = dict(inertia=ident.inertia.median, damping=ident.damping.median, noise=ident.noise_levels)
+    f, n = elbow_result.filtered, elbow_result.trial.n_samples
+    assert innovation_statistics(f, **kw, informed=np.ones(n, bool)) == innovation_statistics(f, **kw)
+    # too few informed steps: not computed (the check then passes)
+    assert innovation_statistics(f, **kw, informed=np.zeros(n, bool)) is None
+
+
+def test_stiffness_shift_is_linear_in_the_change_of_inertia_and_damping(elbow_result):
+    from limbstiff.checks.model import stiffness_shift
+    from limbstiff.estimate.observer import informed_samples
+    ident = elbow_result.identification
+    m, b = ident.inertia.median, ident.damping.median
+    kw = dict(inertia=m, damping=b, stiffness=elbow_result.stiffness,
+              informed=informed_samples(elbow_result.observable))
+    f = elbow_result.filtered
+    assert stiffness_shift(f, other=(m, b), **kw) == 0.0
+    one = stiffness_shift(f, other=(1.1 * m, b), **kw)
+    assert stiffness_shift(f, other=(1.2 * m, b), **kw) == pytest.approx(2 * one, rel=1e-9)
+    # more inertia takes more of the torque at the motion's frequencies, which lie below the
+    # resonance: ÿ ≈ −ω²y, so the elastic torque and the stiffness rise, by m·ω²/K per unit of Δm/m
+    assert one > 0
+
+
+def test_a_disagreement_on_inertia_that_leaves_the_stiffness_is_not_flagged(tmp_path):
+    """The independent simulator's clean gait ankle (suite seed 7100, on which the threshold was
+    argued): least squares finds an inertia 50 % above the posterior's (measured), but with it the
+    stiffness would move by 3 %, well inside WRONG (20 %): no caution for that."""
+    result = _independent_trial(tmp_path, 7100, "clean-gait-ankle")
+    check = result.checks["mechanics_agreement"]
+    ls = result.identification.least_squares
+    assert abs(ls.inertia / result.identification.inertia.median - 1) > 0.2    # the old check's failure
+    assert check.passed and check.value < 0.1

@@ -205,20 +205,30 @@ def _noise_levels(margins: np.ndarray, negligible: bool, share: float) -> Check:
                  "the noise levels were fitted inside their bounds" + note)
 
 
-def _agreement(ident: Identification) -> Check | None:
-    if ident is None or ident.given:
+def _agreement(ident: Identification, filtered: Filtered, stiffness, observable) -> Check | None:
+    if ident is None or ident.given or ident.least_squares is None or ident.maximum_likelihood is None:
         return None
-    ls, ml = ident.least_squares, ident.maximum_likelihood
-    worst = 0.0
-    for name in ("inertia", "damping"):
-        values = [getattr(ls, name), getattr(ml, name), getattr(ident, name).median]
-        ref = abs(values[2]) or 1e-300
-        worst = max(worst, (max(values) - min(values)) / ref)
+    m, b = ident.inertia.median, ident.damping.median
+    informed = informed_samples(observable)
+    shifts = {name: model.stiffness_shift(filtered, inertia=m, damping=b, other=(fit.inertia, fit.damping),
+                                          stiffness=stiffness, informed=informed)
+              for name, fit in (("least squares", ident.least_squares),
+                                ("maximum likelihood", ident.maximum_likelihood))}
+    shifts = {k: v for k, v in shifts.items() if v is not None}
+    if not shifts:
+        return None
+    name = max(shifts, key=lambda k: abs(shifts[k]))
+    worst = abs(shifts[name])
+    ls = ident.least_squares
+    apart = max(abs(ls.inertia - m) / (abs(m) or 1e-300), abs(ls.damping - b) / (abs(b) or 1e-300))
     return check_at_most("mechanics_agreement", worst, AGREEMENT_MAX, severity=CAUTION,
-                         good="least squares, maximum likelihood and the posterior agree on inertia and damping",
-                         bad=f"least squares, maximum likelihood and the posterior disagree on inertia or damping by "
-                             f"{100 * worst:.0f} %: they rest on the model, not the data; give m and b if they are "
-                             "known, or treat the stiffness with caution")
+                         good=f"least squares, maximum likelihood and the posterior agree on inertia and damping as "
+                              f"far as the stiffness is concerned (with {name}'s m and b it would differ by "
+                              f"{100 * worst:.0f} %)",
+                         bad=f"least squares, maximum likelihood and the posterior disagree on inertia or damping "
+                             f"(least squares by {100 * apart:.0f} %), and with {name}'s m and b the stiffness would "
+                             f"differ by {100 * worst:.0f} %: they rest on the model, not the data; give m and b if "
+                             "they are known, or treat the stiffness with caution")
 
 
 def _inertia_range(ident: Identification) -> Check | None:
@@ -281,10 +291,13 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
     # the residual's structure is not judged where it is tiny and the model is shown to predict
     # the torque out of sample (noise-free recordings)
     negligible = share < NEGLIGIBLE_RESIDUAL and heldout is not None and heldout >= NEGLIGIBLE_HELDOUT
-    checks = [_heldout(heldout), *_innovations(model.innovation_statistics(filtered, **kw), negligible, share),
+    informed = informed_samples(observable)
+    checks = [_heldout(heldout),
+              *_innovations(model.innovation_statistics(filtered, **kw, informed=informed), negligible, share),
               *_stiffness_course(stiffness, lo, hi, observable),
               _angle_dependence(angle_terms or model.angle_terms(filtered, **kw), stiffness, lo, hi, observable),
-              _noise_levels(model.bound_margins(filtered, **kw), negligible, share), _agreement(ident),
+              _noise_levels(model.bound_margins(filtered, **kw), negligible, share),
+              _agreement(ident, filtered, stiffness, observable),
               _inertia_range(ident),
               torque_sign(filtered, inertia=m, damping=b), _coupling(coupling, corrected)]
     return ModelChecks(tuple(c for c in checks if c is not None))

@@ -151,7 +151,7 @@ def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.n
     if degree < 0 or np.ptp(y) == 0:
         coef = np.array([float(np.mean(sigma)) if len(near) else 0.0])
     else:
-        coef = _polyfit(y, sigma, degree)
+        coef = np.polyfit(y, sigma, degree)
     elastic = _clipped_antiderivative(coef, *((y.min(), y.max()) if len(near) else (0.0, 0.0)))
     gap = angle[a:b]
     forward = smoothed[a - 1, 0] + elastic(gap) - elastic(angle[a - 1]) if a > 0 else None
@@ -160,17 +160,6 @@ def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.n
         return forward if backward is None else backward
     w = (np.arange(length) + 1.0) / (length + 1.0)
     return (1.0 - w) * forward + w * backward
-
-
-def _polyfit(y: np.ndarray, sigma: np.ndarray, degree: int) -> np.ndarray:
-    """Least-squares polynomial of σ on y (highest power first), its degree lowered until the
-    angles determine it (an encoder's few distinct steps beside a short gap do not determine a
-    quadratic: numpy then warns and returns an arbitrary one)."""
-    while True:
-        coef, _, rank, _, _ = np.polyfit(y, sigma, degree, full=True)
-        if rank > degree or degree == 0:
-            return coef
-        degree -= 1
 
 
 def _clipped_antiderivative(coef: np.ndarray, lo: float, hi: float):
@@ -188,10 +177,19 @@ def _clipped_antiderivative(coef: np.ndarray, lo: float, hi: float):
     return elastic
 
 
-def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
-                          noise: NoiseLevels) -> InnovationStatistics | None:
+def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels,
+                          informed: np.ndarray | None = None) -> InnovationStatistics | None:
     """Whiteness of the innovations and their correlation with the velocity (None on fewer
-    than :data:`MIN_STEPS` steps)."""
+    than :data:`MIN_STEPS` steps).
+
+    Parameters
+    ----------
+    informed : ndarray of bool, shape (n,), optional
+        The samples the motion informs the stiffness on; the statistics are then taken over the
+        steps there only (pairs of steps both informed). Where the limb is held still the
+        innovations say nothing about the stiffness, and a free motion dying out in a pause is a
+        smooth, predictable residual of the noise-free kind (:data:`~limbstiff.checks.verdict.NEGLIGIBLE_RESIDUAL`).
+    """
     st = _steps(filtered, inertia, damping)
     if len(st.index) < MIN_STEPS:
         return None
@@ -199,16 +197,42 @@ def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
                                       *noise.per_step(st.step), float(st.initial_mean[0]), float(st.initial_mean[1]),
                                       *map(float, st.initial_cov))
     skip = max(WHITENESS_LAGS, len(e) // 50)          # the diffuse start
+    keep = np.ones(len(e) - skip, dtype=bool) if informed is None else np.asarray(informed, bool)[st.index][skip:]
+    if keep.sum() < MIN_STEPS:
+        return None
     u = e[skip:] / np.sqrt(s[skip:])
-    u = (u - u.mean()) / max(float(u.std()), 1e-300)
     v = filtered.velocity[st.index][skip:]
-    v = (v - v.mean()) / max(float(v.std()), 1e-300)
-    n = len(u)
-    acf = [float(np.dot(u[:-k], u[k:]) / n) for k in range(1, min(WHITENESS_LAGS, n - 1) + 1)]
+    u = np.where(keep, (u - u[keep].mean()) / max(float(u[keep].std()), 1e-300), 0.0)
+    v = np.where(keep, (v - v[keep].mean()) / max(float(v[keep].std()), 1e-300), 0.0)
+    n, count = len(u), int(keep.sum())
+    acf = [float(np.dot(u[:-k], u[k:]) / count) for k in range(1, min(WHITENESS_LAGS, n - 1) + 1)]
     lags = range(0, min(int(VELOCITY_LAG_S / st.step), n - 1) + 1)
-    xcorr = [float(np.dot(u[k:], v[:n - k]) / n) for k in lags]
+    xcorr = [float(np.dot(u[k:], v[:n - k]) / count) for k in lags]
     return InnovationStatistics(autocorrelation=max(map(abs, acf), default=0.0),
                                 velocity_correlation=max(map(abs, xcorr), default=0.0))
+
+
+def stiffness_shift(filtered: Filtered, *, inertia: float, damping: float, other: tuple[float, float],
+                    stiffness: np.ndarray, informed: np.ndarray) -> float | None:
+    """Relative change of the stiffness were (m, b) replaced by ``other``.
+
+    The Kalman model reads the stiffness from the elastic torque's increments over the angle's
+    at its steps (ds = σ·dy); m' and b' in place of m and b change the elastic torque by
+    −((m' − m)·ÿ + (b' − b)·ẏ), so the stiffness by the least-squares slope of that change's
+    increments on the angle's, over pairs of informed steps. Returned over |median stiffness|
+    (None when it cannot be computed).
+    """
+    st = _steps(filtered, inertia, damping)
+    i = st.index
+    change = (other[0] - inertia) * filtered.acceleration[i] + (other[1] - damping) * filtered.velocity[i]
+    dy, dc = np.diff(filtered.angle[i]), np.diff(change)
+    use = np.asarray(informed, bool)[i]
+    use = use[1:] & use[:-1]
+    median = abs(float(np.median(stiffness[informed])))
+    spread = float(dy[use] @ dy[use]) if use.any() else 0.0
+    if spread <= 0 or median <= 0:
+        return None
+    return float(-(dy[use] @ dc[use]) / spread / median)
 
 
 def angle_terms_on(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float) -> AngleTerms | None:
