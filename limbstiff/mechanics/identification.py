@@ -20,7 +20,7 @@ from ..protocol import Protocol
 from ..statespace.noise import NoiseLevels
 from ..statespace.steps import kalman_decimation
 from .angle_error import NO_EFFECT, AngleErrorEffect, angle_error_effect
-from .effect_terms import EffectFit, EffectTerms, effect_fits
+from .effect_terms import EffectFit, EffectTerms, effect_fits, without_effects
 from .least_squares import LeastSquaresFit, least_squares
 from .fixed_b import bartlett_fixed_b
 from .likelihood import MechanicsFit, MechanicsProblem, kalman_mechanics, robust_covariance
@@ -185,6 +185,12 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     post = (_with_angle_error(post, effect, rng) if applied
             else dataclasses.replace(post, warnings=post.warnings + refused))
     out, draws = _mechanics_intervals(post, (m, b), protocol.ci_level, where, reflex_hint=not effects)
+    if effects:
+        # the least squares the checks compare with: on the torque less the effects at their
+        # maximum-likelihood amplitudes (least squares alone has no term for them)
+        guess = least_squares(without_effects(filtered.torque, effects, fit.amplitudes), filtered.angle,
+                              filtered.velocity, filtered.acceleration, sample_period=filtered.sample_period,
+                              window=IDENTIFY_PERIODS / filtered.motion_hz)
     return Identification("given" if given is not None else "kalman+emcee", out[0], out[1], np.cov(draws.T),
                           least_squares=guess, maximum_likelihood=fit, posterior=post,
                           noise_levels=post.noise_levels(), decimation=decimation, warnings=tuple(post.warnings),
