@@ -209,7 +209,7 @@ def from_rows(paths) -> str:
     own = next(r for r in runs if r["own"])
     ind = next(r for r in runs if r["independent"])
     return report(own["own"], ind["independent"], wall=own["wall"], wall_independent=ind["wall_independent"],
-                  jobs=f"{own['jobs']} and {ind['jobs']}", first=own["first"], seeds=own["seeds"],
+                  jobs=own["jobs"], first=own["first"], seeds=own["seeds"],
                   independent_seeds=ind["independent_seeds"], duration=own["duration"])
 
 
