@@ -23,9 +23,8 @@ from .coupling import MAX_CORRECTION, CouplingFit, detect_coupling
 from .checks import check_analysis
 from .checks.analysis import sign_hint
 from .checks.model import angle_terms_on
-from .checks.reflex import reflex_check
+from .checks.reflex import ReflexShift, reflex_check
 from .checks.units import implausible_inertia, plausible, units_checks
-from .checks.reflex import ReflexShift
 from .checks.verdict import ModelChecks
 from .effects.in_model import ShapeProfile, filtered_without, reflex_probe, reflex_shift, terms_for
 from .errors import TrialError
@@ -160,12 +159,13 @@ def _check_noise(filtered: Filtered, estimate: estimators.Estimate, ident: Ident
 
 
 def _estimate(filtered: Filtered, protocol: Protocol, derived: DerivedSettings,
-              ident: Identification | None, extra: np.ndarray | None = None) -> estimators.Estimate:
+              ident: Identification | None, extra: np.ndarray | None = None,
+              noise: NoiseLevels | None = None) -> estimators.Estimate:
     mech = {} if ident is None else {"inertia": ident.inertia.median, "damping": ident.damping.median}
     if protocol.estimator == "kalman":
         # the noise levels fitted with m and b (one likelihood for both), when they were fitted
-        return estimators.kalman(filtered, noise=None if ident is None else ident.noise_levels,
-                                 extra_regressors=extra, **mech)
+        noise = noise if noise is not None else (None if ident is None else ident.noise_levels)
+        return estimators.kalman(filtered, noise=noise, extra_regressors=extra, **mech)
     return estimators.observers(filtered, smoothed=protocol.estimator == "observer-smoothed",
                                 gain=derived.observer_gain, velocity_threshold=derived.velocity_threshold,
                                 discretisation=protocol.discretisation, **mech)
@@ -195,18 +195,23 @@ def _estimate_and_probe(trial: Trial, filtered: Filtered, protocol: Protocol, de
     estimate = _estimate(filtered, protocol, derived, ident, extra)
     if probe is None and ident is not None and ident.given:
         probe = reflex_probe(trial, filtered, protocol, ident, estimate.fit.noise)
-        if probe is not None:
-            estimate = _estimate(filtered, protocol, derived, ident, probe.column[None])
+        if probe is not None:           # the same noise levels: the same course, with the probe's sensitivity
+            estimate = _estimate(filtered, protocol, derived, ident, probe.column[None], noise=estimate.fit.noise)
     return estimate, probe
 
 
-def _reflex_shift(probe: ShapeProfile | None, estimate: estimators.Estimate, ident: Identification | None, lo, hi,
-                  observable) -> ReflexShift | None:
+def _reflex_shift(probe: ShapeProfile | None, estimate: estimators.Estimate, ident: Identification | None,
+                  observable: np.ndarray, level: float) -> ReflexShift | None:
+    """What the probed reflex would change, on the one-body course and its band (a coupling's
+    limb correction is not in the sensitivity)."""
     if probe is None or estimate.sensitivity is None or len(estimate.sensitivity) < 3:
         return None
-    return reflex_shift(probe, sensitivity=estimate.sensitivity, coefficients=ident.coefficients[:2],
+    half = float(stats.norm.ppf(0.5 + level / 2)) * np.sqrt(
+        np.maximum(estimate.variance_with(ident.coefficient_covariance), 0.0))
+    return reflex_shift(probe, sensitivity=estimate.sensitivity,
                         intervals=None if ident.given else (ident.inertia, ident.damping),
-                        stiffness=estimate.stiffness, lo=lo, hi=hi, informed=observable)
+                        stiffness=estimate.stiffness, lo=estimate.stiffness - half, hi=estimate.stiffness + half,
+                        informed=observable)
 
 
 def _filtered_and_coupling(trial: Trial, protocol: Protocol):
@@ -373,8 +378,8 @@ def trial_and_protocol(trial: Trial | str | os.PathLike,
 
 
 @one_blas_thread
-def analyze(trial: Trial | str | os.PathLike, protocol: Protocol | str | os.PathLike | None = None, *, inertia: float | None = None,
-            damping: float | None = None, observer_gain: float | None = None,
+def analyze(trial: Trial | str | os.PathLike, protocol: Protocol | str | os.PathLike | None = None, *,
+            inertia: float | None = None, damping: float | None = None, observer_gain: float | None = None,
             estimator: str | None = None, seed: int = 0,
             reference: np.ndarray | None = None, effects: Sequence[str] | None = None) -> StiffnessResult:
     """Estimate the stiffness course of one trial.
@@ -414,9 +419,9 @@ def analyze(trial: Trial | str | os.PathLike, protocol: Protocol | str | os.Path
         When the trial cannot give a stiffness (no motion, missing channel…).
     """
     trial, protocol = trial_and_protocol(trial, protocol)
-    protocol = protocol.override(inertia=inertia, damping=damping, observer_gain=observer_gain,
-                                                 estimator=estimator,
-                                                 effects=None if effects is None else tuple(effects))
+    protocol = protocol.override(inertia=inertia, damping=damping, observer_gain=observer_gain, estimator=estimator,
+                                 effects=None if effects is None else
+                                 ((effects,) if isinstance(effects, str) else tuple(effects)))
     where = _where(trial)
     found = plausible(trial, protocol)
     filtered, scan, coupling = _filtered_and_coupling(trial, protocol)
@@ -441,7 +446,7 @@ def analyze(trial: Trial | str | os.PathLike, protocol: Protocol | str | os.Path
     checks = check_analysis(filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=_check_noise(filtered, estimate, ident), coupling=coupling,
                             corrected=corrected, angle_terms=angle)
-    reflex = reflex_check(_reflex_shift(probe, estimate, ident, lo, hi, observable))
+    reflex = reflex_check(_reflex_shift(probe, estimate, ident, observable, protocol.ci_level))
     checks = units_checks(ModelChecks(checks.checks + ((reflex,) if reflex is not None else ())),
                           implausible_inertia(trial, protocol, ident, found))
     return StiffnessResult(

@@ -228,6 +228,20 @@ def test_identify_writes_posterior_and_draws(tmp_path):
     assert table["inertia_unit"].tolist() == ["kg·m²"]
 
 
+def test_identify_with_m_and_b_given_runs_again_as_a_no_op(tmp_path):
+    # m and b given: no posterior, so no draws.csv; the same command again is up to date, not refused
+    path = tmp_path / "elbow.csv"
+    assert run("simulate", "elbow", "--seed", 12, "--set", "duration=4", "--out", path).exit_code == 0
+    protocol = tmp_path / "given.toml"
+    protocol.write_text("[mechanics]\ninertia = 0.06\ndamping = 0.45\n")
+    out = tmp_path / "id"
+    first = run("identify", path, "--protocol", protocol, "--out", out, "--jobs", 1)
+    assert first.exit_code == 0, first.output
+    assert not (out / "elbow" / "draws.csv").exists()
+    again = run("identify", path, "--protocol", protocol, "--out", out, "--jobs", 1)
+    assert again.exit_code == 0 and "1 up to date, skipped" in again.output, again.output
+
+
 def _refused(res, path):
     """One line, exit 2, naming the file and what to do."""
     lines = res.output.strip().splitlines()

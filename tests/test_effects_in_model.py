@@ -144,5 +144,7 @@ def test_cli_effect_option(tmp_path, reflex_elbow):
     data = json.loads((tmp_path / "o" / "t" / "summary.json").read_text())
     assert data["settings"]["effects"] == ["reflex"]
     assert data["details"]["identification"]["effects"][0]["shape"]["delay"] == pytest.approx(0.04)
+    # one name as a string is one effect (not its letters)
+    assert Protocol().override(effects=("reflex",)) == Protocol(effects="reflex")
     bad = CliRunner().invoke(main, ["analyze", str(path), "--effect", "backlash"])
     assert bad.exit_code == 2 and "backlash" in bad.output

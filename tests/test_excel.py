@@ -128,3 +128,16 @@ def test_xls_and_damaged_workbooks_are_one_line_errors(tmp_path):
 
 def test_folders_are_searched_for_workbooks():
     assert ".xlsx" in EXTENSIONS and ".xlsx" in FOLDER_EXTENSIONS and ".xls" not in EXTENSIONS
+
+
+def test_a_damaged_worksheet_is_one_line_error(tmp_path):
+    # read-only workbooks parse each sheet lazily, after load_workbook succeeded: a truncated
+    # sheet's XML fails there (it escaped as an xml ParseError before)
+    import zipfile
+    good = workbook(tmp_path / "good.xlsx", multisine_trial(duration=1.0))
+    bad = tmp_path / "bad.xlsx"
+    with zipfile.ZipFile(good) as src, zipfile.ZipFile(bad, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            dst.writestr(item, data[: len(data) // 2] if item.filename.startswith("xl/worksheets/") else data)
+    expect_error(bad, "cannot be read as an .xlsx workbook", protocol_from_dict({"columns": LAB}))

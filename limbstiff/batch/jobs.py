@@ -275,7 +275,7 @@ def _identify_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     opts, out = job.options, job.at(job.out)
     if not opts.overwrite:
         done = up_to_date(out, source_sha256=sha256_file(job.at(job.source)), run_sha256=opts.run_sha256,
-                          files=["draws.csv"], marker="posterior.json")
+                          files=list(_identify_writes(opts.protocol)), marker="posterior.json")
         if done is not None:
             return done
     _clear_or_refuse(job, "posterior.json")
@@ -302,7 +302,13 @@ def identify_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     protocol = protocol or Protocol()
     options = JobOptions(protocol, seed, run_sha256=run_fingerprint(protocol, seed=seed), overwrite=overwrite)
     return _run(paths, _identify_and_write, options, out=out, jobs=jobs, executor=executor, progress=progress,
-                marker="posterior.json", writes=("draws.csv",))
+                marker="posterior.json", writes=_identify_writes(protocol))
+
+
+def _identify_writes(protocol: Protocol) -> tuple[str, ...]:
+    """What ``identify`` writes beside ``posterior.json``: ``draws.csv``, unless m and b are both
+    given (no posterior to draw from)."""
+    return () if protocol.inertia is not None and protocol.damping is not None else ("draws.csv",)
 
 
 def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",

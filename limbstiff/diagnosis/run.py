@@ -195,7 +195,7 @@ def _stiffness_with_effects(run: _Run) -> tuple[TrialStiffness, ...]:
         if in_model:
             try:
                 corrected = analyze(trial, run.protocol, seed=run.seed, effects=in_model)
-            except LimbstiffError as exc:
+            except Exception as exc:        # noqa: BLE001 — one trial's re-analysis must not lose the diagnosis
                 row = dataclasses.replace(row, note=f"the analysis with {', '.join(in_model)} in the model failed: "
                                                     f"{exc}")
             else:

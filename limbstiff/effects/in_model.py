@@ -18,7 +18,7 @@ model. Pure numpy/scipy: no I/O.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -61,6 +61,9 @@ class ShapeProfile:
     covariance : ndarray, shape (p, p)
         Their sandwich covariance (robust to residuals that are not white).
     shapes_tried : int
+    without : ndarray, shape (p − 1,)
+        The coefficients of the same model without it, at the same noise levels: the baseline its
+        change of m and b is measured from.
     """
 
     name: str
@@ -70,6 +73,7 @@ class ShapeProfile:
     coefficients: np.ndarray
     covariance: np.ndarray
     shapes_tried: int
+    without: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def amplitude_z(self) -> float:
@@ -94,6 +98,10 @@ def profile_effect(ch: Channels, name: str, problem: MechanicsProblem, noise: No
     """The shape of effect ``name`` on its grid that raises the marginal likelihood of ``problem``
     most at the noise levels ``noise`` (the coefficients of ``problem`` integrated out).
 
+    Each shape's torque is compared at unit RMS: under the flat prior the marginal likelihood
+    carries −½·ln det of the coefficients' information, which grows with the column's size, so
+    unscaled a smaller torque (a lower activation corner) would gain ln(1/size) for nothing.
+
     Parameters
     ----------
     ch : Channels
@@ -111,22 +119,26 @@ def profile_effect(ch: Channels, name: str, problem: MechanicsProblem, noise: No
     """
     effect = CANDIDATES[name]
     logs = noise.logs()
-    base = problem.conditional(logs)[0]
+    base, without, _ = problem.conditional(logs)
     idx = problem.steps.index
     best = None
     shapes = effect.grid(Scales.of([ch]))
     for shape in shapes:
         column = effect.evaluate(ch, shape).regressors[0]
-        trial_problem = dataclasses.replace(problem, steps=problem.steps.with_channels(column[idx]))
-        loglik = trial_problem.conditional(logs)[0]
+        size = float(np.sqrt(np.mean(column[idx] ** 2)))
+        if not size > 0:
+            continue
+        loglik = dataclasses.replace(problem, steps=problem.steps.with_channels(column[idx] / size)).conditional(logs)[0]
         if np.isfinite(loglik) and (best is None or loglik > best[0]):
-            best = (loglik, shape, column, trial_problem)
+            best = (loglik, shape, column)
     if best is None:
         raise LimbstiffError(f"the {name} could not be fitted at any shape of its grid")
-    loglik, shape, column, with_it = best
+    loglik, shape, column = best
+    with_it = dataclasses.replace(problem, steps=problem.steps.with_channels(column[idx]))
     mean = with_it.conditional(logs)[1]
     robust = robust_covariance(with_it, logs, mean, motion_frequency=ch.motion_hz)
-    return ShapeProfile(name, dict(shape), column, float(loglik - base), mean, robust.sandwich, len(shapes))
+    return ShapeProfile(name, dict(shape), column, float(loglik - base), mean, robust.sandwich, len(shapes),
+                        without=np.asarray(without, dtype=float))
 
 
 def effect_terms(trial: Trial, filtered: Filtered, names: Sequence[str], *,
@@ -173,7 +185,7 @@ def probe_effect(trial: Trial, filtered: Filtered, name: str, *, noise: NoiseLev
     return profile_effect(Channels.before_analysis(trial, filtered), name, problem, noise)
 
 
-def reflex_shift(probe: ShapeProfile, *, sensitivity: np.ndarray, coefficients: np.ndarray, intervals,
+def reflex_shift(probe: ShapeProfile, *, sensitivity: np.ndarray, intervals,
                  stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, informed: np.ndarray) -> ReflexShift:
     """What the probed effect would change, for the ``reflex`` check.
 
@@ -183,8 +195,6 @@ def reflex_shift(probe: ShapeProfile, *, sensitivity: np.ndarray, coefficients: 
         :func:`probe_effect`'s outcome.
     sensitivity : ndarray, shape (3, n)
         ∂σ̂/∂m, ∂σ̂/∂b and ∂σ̂/∂a for the probe's column (the estimate is affine in them).
-    coefficients : ndarray, shape (2,)
-        The analysis's m and b.
     intervals : (Interval, Interval) or None
         Their intervals when identified (None when given: they do not move).
     stiffness, lo, hi : ndarray, shape (n,)
@@ -196,7 +206,9 @@ def reflex_shift(probe: ShapeProfile, *, sensitivity: np.ndarray, coefficients: 
     ReflexShift
     """
     coef = np.asarray(probe.coefficients, dtype=float)
-    delta = np.concatenate([coef[:2] - coefficients if intervals is not None else np.zeros(2), coef[-1:]])
+    # m and b with the effect against m and b without it, both at the probe's noise levels (the
+    # analysis's medians carry the priors, the sandwich and the angle error's shift as well)
+    delta = np.concatenate([coef[:2] - probe.without[:2] if intervals is not None else np.zeros(2), coef[-1:]])
     if intervals is not None:
         delta[:2] = [0.0 if iv.is_fixed else d for iv, d in zip(intervals, delta[:2])]
     change = delta @ sensitivity[:3]
@@ -206,8 +218,8 @@ def reflex_shift(probe: ShapeProfile, *, sensitivity: np.ndarray, coefficients: 
     band = float(np.median((hi - lo)[where])) / 2 / abs(centre) if centre else float("nan")
     moved = []
     if intervals is not None:
-        moved = [MechanicsMove(name, iv.median, float(new), not iv.lo <= new <= iv.hi)
-                 for name, new, iv in zip(("inertia", "damping"), coef[:2], intervals) if not iv.is_fixed]
+        moved = [MechanicsMove(name, iv.median, float(iv.median + d), not iv.lo <= iv.median + d <= iv.hi)
+                 for name, d, iv in zip(("inertia", "damping"), delta[:2], intervals) if not iv.is_fixed]
     sh = probe.shape
     fa = sh.get("activation_hz")
     words = (f"delay {1000 * sh['delay']:.0f} ms, stretch towards {'positive' if sh['direction'] > 0 else 'negative'} "
@@ -247,5 +259,5 @@ def reflex_probe(trial: Trial, filtered: Filtered, protocol: Protocol, ident: Id
     given = (ident.inertia.median, ident.damping.median) if ident.given else None
     try:
         return probe_effect(trial, filtered, "reflex", noise=noise, given=given)
-    except LimbstiffError:
-        return None
+    except (LimbstiffError, np.linalg.LinAlgError, ValueError, FloatingPointError):
+        return None             # a check that cannot be computed is skipped, the analysis kept

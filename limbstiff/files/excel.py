@@ -65,6 +65,11 @@ def read_xlsx(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
         columns = resolve_columns(where, top.headers, protocol, units=top.units)
         kind = joint_kind(where, columns)
         numbers, cells = _cells(rows, top.first, columns)
+    except TrialError:
+        raise
+    except Exception as exc:  # noqa: BLE001 — read-only sheets are parsed lazily: a damaged sheet fails here
+        raise TrialError(where, f"cannot be read as an .xlsx workbook ({type(exc).__name__} in a worksheet): open "
+                                "it in Excel and save it as .xlsx again, or export CSV") from None
     finally:
         workbook.close()
     if not numbers:
