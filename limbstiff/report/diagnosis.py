@@ -75,7 +75,7 @@ def _stiffness(fig, y, d):
     y -= 0.024
     items = []
     for s in d.stiffness[:MAX_TRIAL_LINES]:
-        line = f"{s.trial}: as analysed (summary.csv) {_iv(s.reported)}, {s.verdict}"
+        line = f"{s.trial}: default model (summary.csv) {_iv(s.reported)}, {s.verdict}"
         if s.with_effects is not None:
             line += (f"; with {' + '.join(s.effects)} in the model {_iv(s.with_effects)}, {s.verdict_with_effects} "
                      f"(limbstiff analyze --effect {' --effect '.join(s.effects)})")
