@@ -104,10 +104,12 @@ def reflex_check(shift: ReflexShift | None) -> Check | None:
                      f"(amplitude {abs(shift.amplitude_z):.1f} standard errors, {threshold:.1f} needed)")
     moved = [m for m in shift.mechanics if m.material]
     moves = value > shift.band or bool(moved)
-    what = [f"the median stiffness would change by {100 * shift.stiffness:+.1f} %"] + [m.words() for m in moved]
+    limits = [f"the median stiffness would change by {100 * shift.stiffness:+.1f} %"] + [m.words() for m in moved]
     message = (f"a delayed torque that follows the velocity (a stretch reflex? {shift.description}) is in the "
-               f"torque and the model leaves it out: with it in the model {', '.join(what)}. Analyse again with "
-               "--effect reflex (or [mechanics] effects = [\"reflex\"] in the protocol)")
+               f"torque and the model leaves it out: with it in the model {', '.join(limits)}. If the joint has "
+               "a stretch reflex, analyse again with "
+               "--effect reflex (or [mechanics] effects = [\"reflex\"] in the protocol); on a device, friction "
+               "that follows the velocity does this too (limbstiff diagnose tells them apart)")
     if not moves:
         return Check("reflex", value, shift.band, True,
                      f"a delayed torque that follows the velocity ({shift.description}) is in the torque, but it moves "
