@@ -120,6 +120,12 @@ def test_m_and_b_given_the_amplitude_is_still_identified(reflex_elbow):
     plain = analyze(reflex_elbow, seed=1, inertia=0.06, damping=0.45)
     assert _error(plain) > 0.1 and not plain.checks["reflex"].passed
     assert _error(fitted) < 0.02
+    # the posterior page shows the gain's posterior, the only coefficient fitted
+    import matplotlib.pyplot as plt
+    from limbstiff.report.mechanics import mechanics_page
+    fig = mechanics_page(fitted)
+    assert any("reflex gain" in ax.get_xlabel() for ax in fig.axes)
+    plt.close(fig)
 
 
 def test_a_clean_trial_passes_the_reflex_check():

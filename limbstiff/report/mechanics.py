@@ -149,6 +149,8 @@ def mechanics_page(result):
     outer = grid(fig, 2, 1, height_ratios=[2, 0.75], hspace=0.28)
     gs = outer[0].subgridspec(2, 2, hspace=0.3, wspace=0.3)
     diag = _diagonal(fig, gs, free, result)
+    if not free and result.identification.effects and post.amplitudes.size:
+        _amplitude(fig.add_subplot(gs[0, :]), post.amplitudes[:, 0], result.identification.effects[0])
     if len(free) == 2:
         _pair(fig.add_subplot(gs[1, 0], sharex=diag[0]), *params, result.ci_level)
         diag[0].set_xlabel("")
@@ -184,6 +186,20 @@ def _parameters(result, draws: np.ndarray) -> list[_Parameter]:
         params.append(_Parameter(name, symbol, result.trial.units[name], getattr(result, name), draws[:, j],
                                  marks, free, limits, inside))
     return params
+
+
+def _amplitude(ax, draws: np.ndarray, effect) -> None:
+    """Histogram of an effect's amplitude (m and b given: the only coefficients fitted), with its interval."""
+    from matplotlib.ticker import NullLocator
+    iv = effect.amplitude
+    ax.hist(draws, bins=40, color="C0", alpha=0.55, density=True, histtype="stepfilled", label="posterior")
+    ax.axvspan(iv.lo, iv.hi, color="C0", alpha=0.12, lw=0)
+    ax.axvline(iv.median, color="k", lw=1.2)
+    ax.legend(loc="upper right", fontsize=FONT["small"], framealpha=0.85)
+    ax.set_xlabel(f"{effect.name} {effect.amplitude_name} [{effect.unit}] (in the model; m and b given)")
+    ax.set_ylabel("probability density")
+    ax.yaxis.set_major_locator(NullLocator())
+    ax.grid(False)
 
 
 def _diagonal(fig, gs, free: list[_Parameter], result) -> list:
