@@ -27,12 +27,10 @@ from ..checks.reflex import MechanicsMove, ReflexShift
 from ..errors import LimbstiffError, TrialError
 from ..filtered import Filtered
 from ..mechanics.effect_terms import EffectTerms, without_effects
-from ..mechanics.identification import IDENTIFY_PERIODS, Identification
-from ..mechanics.least_squares import least_squares
+from ..mechanics.identification import Identification, mechanics_problem
 from ..mechanics.likelihood import MechanicsProblem, kalman_mechanics, robust_covariance
 from ..protocol import Protocol
 from ..statespace.noise import NoiseLevels
-from ..statespace.steps import kalman_decimation
 from ..trial import Trial
 from .candidates import CANDIDATES
 from .channels import Channels
@@ -80,18 +78,6 @@ class ShapeProfile:
         """The amplitude over its (sandwich) standard error."""
         sd = float(np.sqrt(max(self.covariance[-1, -1], 0.0)))
         return float(self.coefficients[-1] / sd) if sd > 0 else float("inf")
-
-
-def _problem(filtered: Filtered, given, extra=None) -> MechanicsProblem:
-    guess = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
-                          sample_period=filtered.sample_period, window=IDENTIFY_PERIODS / filtered.motion_hz)
-    if given is not None:
-        guess = dataclasses.replace(guess, inertia=given[0], damping=given[1])
-    return MechanicsProblem.build(filtered.angle, filtered.velocity, filtered.acceleration, filtered.torque,
-                                  sample_period=filtered.sample_period,
-                                  decimation=kalman_decimation(filtered.sample_period, filtered.cutoff_hz),
-                                  motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge,
-                                  extra=extra, given=given), guess
 
 
 def profile_effect(ch: Channels, name: str, problem: MechanicsProblem, noise: NoiseLevels) -> ShapeProfile:
@@ -162,7 +148,7 @@ def effect_terms(trial: Trial, filtered: Filtered, names: Sequence[str], *,
     EffectTerms
     """
     ch = Channels.before_analysis(trial, filtered)
-    problem, guess = _problem(filtered, given)
+    problem, guess = mechanics_problem(filtered, given=given)
     noise = kalman_mechanics(problem, guess=guess).noise
     chosen = []
     for name in names:
@@ -181,7 +167,7 @@ def probe_effect(trial: Trial, filtered: Filtered, name: str, *, noise: NoiseLev
                  given: tuple[float, float] | None = None) -> ShapeProfile:
     """Effect ``name`` profiled against the model an analysis fitted without it (its noise levels
     ``noise``; ``given`` m and b when they were given): what the ``reflex`` check reads."""
-    problem, _ = _problem(filtered, given)
+    problem, _ = mechanics_problem(filtered, given=given)
     return profile_effect(Channels.before_analysis(trial, filtered), name, problem, noise)
 
 

@@ -168,13 +168,8 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     given = (m, b) if m is not None and b is not None else None
     if given is not None and not effects:
         return Identification("given", Interval.fixed(m), Interval.fixed(b), np.zeros((2, 2)))
-    guess = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
-                          sample_period=filtered.sample_period, window=IDENTIFY_PERIODS / filtered.motion_hz)
     decimation = kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
-    problem = MechanicsProblem.build(filtered.angle, filtered.velocity, filtered.acceleration, filtered.torque,
-                                     sample_period=filtered.sample_period, decimation=decimation,
-                                     motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge,
-                                     extra=None if not effects else effects.columns, given=given)
+    problem, guess = mechanics_problem(filtered, given=given, extra=None if not effects else effects.columns)
     fit = kalman_mechanics(problem, guess=guess)
     post = sample(problem, start=fit, inertia_prior=protocol.inertia_prior, damping_prior=protocol.damping_prior,
                   rng=rng, seed=seed, given=given)
@@ -188,13 +183,32 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     if effects:
         # the least squares the checks compare with: on the torque less the effects at their
         # maximum-likelihood amplitudes (least squares alone has no term for them)
-        guess = least_squares(without_effects(filtered.torque, effects, fit.amplitudes), filtered.angle,
-                              filtered.velocity, filtered.acceleration, sample_period=filtered.sample_period,
-                              window=IDENTIFY_PERIODS / filtered.motion_hz)
+        guess = _least_squares(filtered, without_effects(filtered.torque, effects, fit.amplitudes))
     return Identification("given" if given is not None else "kalman+emcee", out[0], out[1], np.cov(draws.T),
                           least_squares=guess, maximum_likelihood=fit, posterior=post,
                           noise_levels=post.noise_levels(), decimation=decimation, warnings=tuple(post.warnings),
                           angle_error=effect, effects=effect_fits(effects, post.amplitudes, protocol.ci_level))
+
+
+def mechanics_problem(filtered: Filtered, *, given: tuple[float, float] | None = None,
+                      extra: np.ndarray | None = None) -> tuple[MechanicsProblem, LeastSquaresFit]:
+    """The identification's problem on the filtered signals (``extra`` (k, n): effects' torques per
+    unit amplitude; ``given`` (m, b) when they are not fitted), and the least-squares fit that
+    sizes its noise bounds and starts its search."""
+    guess = _least_squares(filtered, filtered.torque)
+    problem = MechanicsProblem.build(filtered.angle, filtered.velocity, filtered.acceleration, filtered.torque,
+                                     sample_period=filtered.sample_period,
+                                     decimation=kalman_decimation(filtered.sample_period, filtered.cutoff_hz),
+                                     motion_frequency=filtered.motion_hz, guess=guess, edge=filtered.edge,
+                                     extra=extra, given=given)
+    return problem, guess
+
+
+def _least_squares(filtered: Filtered, torque: np.ndarray) -> LeastSquaresFit:
+    """Windowed least squares of ``torque`` (n,) on the filtered signals, windows of
+    :data:`IDENTIFY_PERIODS` motion periods."""
+    return least_squares(torque, filtered.angle, filtered.velocity, filtered.acceleration,
+                         sample_period=filtered.sample_period, window=IDENTIFY_PERIODS / filtered.motion_hz)
 
 
 def _mechanics_intervals(post: Posterior, given, level: float, where: str, *,
