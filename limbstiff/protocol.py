@@ -18,9 +18,9 @@ from typing import Any, Mapping
 
 from .errors import ProtocolError
 from .plausibility import LIMBS
-from .units import UNITS
+from .units import UNITS, free_unit_clash
 
-QUANTITIES = ("time", "angle", "torque", "elastic_torque", "stiffness_true")
+QUANTITIES = ("time", "angle", "torque", "elastic_torque", "stiffness_true", "schedule")
 VARIANTS = ("auto", "external", "direct")
 ESTIMATORS = ("kalman", "observer-smoothed", "observer")
 #: Unmodelled effects an analysis can put in its model (``[mechanics] effects``, ``--effect``): the torque
@@ -54,6 +54,29 @@ class Column:
     unit: str | None = None
     scale: float = 1.0
     component: str | None = None
+
+
+@dataclass(frozen=True)
+class Cycles:
+    """How a trial is cut into movement cycles (the ``[cycles]`` section).
+
+    Exactly one of ``period_s`` and ``marker`` is given: cycles of fixed length from the first
+    sample (or from ``start_s``), or cycles started by the rising edges of a trigger column.
+
+    Parameters
+    ----------
+    period_s : float or None, s
+        Length of every cycle; None when a marker column starts them.
+    start_s : float, s
+        Time after the first sample at which the first fixed-length cycle starts (≥ 0).
+    marker : str or None
+        Header of the trigger (event) column whose rising edges start the cycles, matched like
+        the headers of ``[columns]``; its raw values become :attr:`limbstiff.trial.Trial.marker`.
+    """
+
+    period_s: float | None = None
+    start_s: float = 0.0
+    marker: str | None = None
 
 
 @dataclass(frozen=True)
@@ -91,8 +114,11 @@ class Protocol:
         File the protocol was read from.
     columns : Mapping[str, Column]
         How each quantity (``time``, ``angle``, ``torque``, ``elastic_torque``,
-        ``stiffness_true``) is found in the files; quantities not listed use the standard
-        ``<quantity>_<unit>`` headers.
+        ``stiffness_true``, ``schedule``) is found in the files; quantities not listed use the
+        standard ``<quantity>_<unit>`` headers. ``schedule`` is a recorded variable the stiffness
+        depends on (an operating position, an EMG envelope, a commanded torque): its unit is one
+        of the unit table (converted to SI) or a free unit the table does not know (``"%MVC"``,
+        ``"V"``, ``"1"``), kept as given, unconverted.
     delimiter : {"auto", ",", ";", "\\t"}
         Field separator of text files; ``auto`` detects it from the header line (``"tab"``
         is accepted for ``"\\t"``).
@@ -154,6 +180,9 @@ class Protocol:
         Unmodelled effects put in the model (names of :data:`MODEL_EFFECTS`, ``[mechanics] effects``):
         their shape chosen from the data, their amplitudes identified with m and b
         (:mod:`limbstiff.effects.in_model`). None by default.
+    cycles : Cycles or None
+        How trials are cut into movement cycles (``[cycles]``: ``period_s``, ``start_s``,
+        ``marker``); None: the protocol does not say.
     """
 
     name: str = "default"
@@ -184,6 +213,7 @@ class Protocol:
     ci_level: float = 0.9
     limb: str | None = None
     effects: tuple = ()
+    cycles: Cycles | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "columns", FrozenDict(self.columns))
@@ -202,14 +232,14 @@ class Protocol:
         out = {}
         for f in fields(self):
             value = getattr(self, f.name)
-            if isinstance(value, (Column, Prior)):
+            if isinstance(value, (Column, Prior, Cycles)):
                 value = {g.name: getattr(value, g.name) for g in fields(value)}
             elif f.name == "columns":
                 # a component only where one is set: the settings (and their hash) of other files unchanged
                 value = {q: {g.name: getattr(c, g.name) for g in fields(c)
                              if g.name != "component" or c.component is not None} for q, c in value.items()}
-            if (f.name in ("limb", "sheet") and value is None) or (f.name == "effects" and not value):
-                continue        # the settings (and their hash) of protocols without a limb or effects unchanged
+            if (f.name in ("limb", "sheet", "cycles") and value is None) or (f.name == "effects" and not value):
+                continue        # the settings (and their hash) of protocols without a limb, effects or cycles unchanged
             if f.name == "effects":
                 value = list(value)
             out[f.name] = value
@@ -233,7 +263,7 @@ _SECTIONS = {
 }
 # Settings for which "auto" (None) means: derive from each trial's data.
 _AUTO = {"observer_gain", "bandwidth_hz", "sample_period", "inertia", "damping", "sample_rate_hz", "max_gap_s"}
-_TOP = {"name", "description", "limb", "columns", "priors", *_SECTIONS}
+_TOP = {"name", "description", "limb", "columns", "priors", "cycles", *_SECTIONS}
 
 
 def load_protocol(path: str | Path) -> Protocol:
@@ -308,12 +338,23 @@ def protocol_from_dict(raw: Mapping[str, Any], *, source: str = "<protocol>") ->
         if unknown:
             raise ProtocolError(source, f"unknown key(s) in [priors.{name}]: {', '.join(sorted(unknown))}")
         kwargs[f"{name}_prior"] = Prior(**spec)
+    if "cycles" in raw:
+        kwargs["cycles"] = _cycles(source, _table(source, "cycles", raw["cycles"]))
     try:
         return Protocol(**kwargs)
     except ProtocolError as exc:
         raise ProtocolError(source, exc.problem) from None
     except TypeError as exc:
         raise ProtocolError(source, f"invalid value ({exc})") from None
+
+
+def _cycles(source, table: Mapping[str, Any]) -> Cycles:
+    """The ``[cycles]`` section as :class:`Cycles` (checked by :func:`_check_cycles`)."""
+    unknown = set(table) - {f.name for f in fields(Cycles)}
+    if unknown:
+        raise ProtocolError(source, f"unknown key(s) in [cycles]: {', '.join(sorted(unknown))} "
+                                    "(period_s, start_s, marker)")
+    return Cycles(period_s=table.get("period_s"), start_s=table.get("start_s", 0.0), marker=table.get("marker"))
 
 
 def _table(source, name, value) -> Mapping[str, Any]:
@@ -366,11 +407,51 @@ def _check(p: Protocol) -> None:
         raise ProtocolError(where, f"'ci_level' must be a number between 0 and 1, not {p.ci_level!r}")
     for label, prior in (("inertia", p.inertia_prior), ("damping", p.damping_prior)):
         _check_prior(where, label, prior)
+    _check_cycles(p, where)
     for quantity, column in p.columns.items():
-        if column.unit is not None and column.unit not in UNITS:
+        if quantity == "schedule" and column.unit is not None:
+            _check_schedule_unit(where, column.unit)
+        elif column.unit is not None and column.unit not in UNITS:
             raise ProtocolError(where, f"unknown unit '{column.unit}' for {quantity} in [columns.{quantity}]")
         if column.scale == 0 or column.scale != column.scale:
             raise ProtocolError(where, f"'scale' of [columns.{quantity}] must be a non-zero number")
+
+
+def _check_schedule_unit(where, unit) -> None:
+    """A schedule's unit: any unit of the table, or a free one (``%MVC``, ``V``) kept unconverted —
+    but not one the table knows by another case (``Deg``), which would pass unconverted by mistake."""
+    clash = free_unit_clash(unit) if isinstance(unit, str) else None
+    if not isinstance(unit, str) or not unit.strip():
+        raise ProtocolError(where, f"'unit' of [columns.schedule] must be a unit, not {unit!r}")
+    if clash:
+        raise ProtocolError(where, f"unit '{unit}' of [columns.schedule] is not in the unit table, '{clash}' is: "
+                                   f"write unit = \"{clash}\" (converted to SI) or a unit the table does not know")
+
+
+def _check_cycles(p: Protocol, where) -> None:
+    """``[cycles]``: exactly one of period_s and marker; period_s > 0, start_s ≥ 0."""
+    c = p.cycles
+    if c is None:
+        return
+    if not isinstance(c, Cycles):
+        raise ProtocolError(where, f"'cycles' must be a Cycles, not {type(c).__name__}")
+    if (c.period_s is None) == (c.marker is None):
+        said = "both period_s and marker" if c.marker is not None else "neither period_s nor marker"
+        raise ProtocolError(where, f"[cycles] gives {said}: write either period_s = <cycle length in s> "
+                                   "(cycles of fixed length) or marker = \"<header of the trigger column>\"")
+    number = (int, float)
+    if c.period_s is not None and (isinstance(c.period_s, bool) or not isinstance(c.period_s, number)
+                                   or not c.period_s > 0 or c.period_s == float("inf")):
+        raise ProtocolError(where, f"'period_s' in [cycles] must be a positive number of seconds, not {c.period_s!r}")
+    if isinstance(c.start_s, bool) or not isinstance(c.start_s, number) or not 0 <= c.start_s < float("inf"):
+        raise ProtocolError(where, f"'start_s' in [cycles] must be a number of seconds ≥ 0, not {c.start_s!r}")
+    if c.marker is not None and c.start_s:
+        raise ProtocolError(where, "'start_s' in [cycles] applies to cycles of fixed length (period_s); with a "
+                                   "marker the rising edges start the cycles: remove start_s")
+    if c.marker is not None and not (isinstance(c.marker, str) and c.marker.strip()):
+        raise ProtocolError(where, f"'marker' in [cycles] must be the header of the trigger column, not {c.marker!r}")
+    object.__setattr__(p, "cycles", replace(c, period_s=None if c.period_s is None else float(c.period_s),
+                                            start_s=float(c.start_s)))
 
 
 def _check_format(p: Protocol, where) -> None:

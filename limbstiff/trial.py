@@ -16,6 +16,7 @@ import numpy as np
 
 from .errors import TrialError
 from .frozen import FrozenDict
+from .units import SI_NAMES, UNITS, free_unit_clash
 
 Kind = Literal["rotational", "translational"]
 
@@ -70,6 +71,14 @@ class Trial:
     bridged : ndarray of bool, shape (n,), or None
         True where the samples were interpolated across a gap in the file's time column: the
         analysis treats them as not informed by motion.
+    schedule : ndarray, shape (n,), or None
+        A recorded variable the stiffness depends on (an operating position, an EMG envelope, a
+        commanded torque), in SI units or in a free unit the unit table does not know.
+    schedule_unit : str or None
+        The unit ``schedule`` is in: an SI unit (``"rad"``, ``"m"``, ``"N·m"``…) or the free unit
+        as given (``"%MVC"``, ``"V"``); None exactly when there is no schedule.
+    marker : ndarray, shape (n,), or None
+        The raw values of the trigger (event) column whose rising edges start the movement cycles.
     """
 
     name: str
@@ -84,6 +93,9 @@ class Trial:
     source_sha256: str | None = None
     warnings: tuple[str, ...] = ()
     bridged: np.ndarray | None = None
+    schedule: np.ndarray | None = None
+    schedule_unit: str | None = None
+    marker: np.ndarray | None = None
 
     def __post_init__(self):
         where = self.source or self.name
@@ -92,7 +104,7 @@ class Trial:
         if self.torque is None and self.elastic_torque is None:
             raise TrialError(where, "no torque or force column (external or elastic)")
         n = len(self.time)
-        for label in ("time", "angle", "torque", "elastic_torque", "stiffness_true"):
+        for label in ("time", "angle", "torque", "elastic_torque", "stiffness_true", "schedule", "marker"):
             values = getattr(self, label)
             if values is None:
                 continue
@@ -104,6 +116,10 @@ class Trial:
             if not np.all(np.isfinite(values)):
                 k = int(np.flatnonzero(~np.isfinite(values))[0])
                 raise TrialError(where, f"'{label}' is not finite at sample {k}")
+        if (self.schedule is None) != (self.schedule_unit is None):
+            raise TrialError(where, "'schedule' and 'schedule_unit' go together: give both or neither")
+        if self.schedule_unit is not None:
+            _check_schedule_unit(where, self.schedule_unit)
         if n < MIN_SAMPLES:
             raise TrialError(where, f"trial too short: {n} samples (at least {MIN_SAMPLES} needed)")
         dt = np.diff(self.time)
@@ -151,9 +167,22 @@ class Trial:
         part = slice(start, stop)
         return replace(self, time=self.time[part], angle=self.angle[part],
                        **{k: None if getattr(self, k) is None else getattr(self, k)[part]
-                          for k in ("torque", "elastic_torque", "stiffness_true", "bridged")})
+                          for k in ("torque", "elastic_torque", "stiffness_true", "bridged", "schedule", "marker")})
 
     @property
     def units(self) -> Mapping[str, str]:
         """SI units of every quantity of this trial (and of the results derived from it)."""
         return SI_UNITS[self.kind]
+
+
+def _check_schedule_unit(where: str, unit) -> None:
+    """A schedule's unit is an SI unit of the table (``rad``, ``N·m``) or a free one it does not
+    know (``%MVC``): not a non-SI unit of the table (``deg``), nor one it knows by another case."""
+    if not (isinstance(unit, str) and unit.strip()):
+        raise TrialError(where, f"'schedule_unit' must be a unit, not {unit!r}")
+    known = UNITS.get(unit)
+    if known is not None and known.factor != 1.0:
+        raise TrialError(where, f"'schedule' must be in SI units ({SI_NAMES[known.dimension]}), not '{unit}'")
+    clash = free_unit_clash(unit)
+    if clash:
+        raise TrialError(where, f"'schedule_unit' '{unit}' is not in the unit table, '{clash}' is")

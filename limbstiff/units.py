@@ -85,6 +85,12 @@ FIELD_DIMENSIONS: Mapping[str, tuple[str, ...]] = MappingProxyType({
 #: Trial fields, in the order they are read and written.
 FIELDS = ("time", "angle", "torque", "elastic_torque", "stiffness_true")
 
+#: The SI unit of each dimension, as a trial's ``schedule_unit`` names it.
+SI_NAMES: Mapping[str, str] = MappingProxyType({
+    "time": "s", "angle": "rad", "length": "m", "torque": "N·m", "force": "N",
+    "rotational_stiffness": "N·m/rad", "translational_stiffness": "N/m",
+})
+
 
 class Standard(NamedTuple):
     """What a standard quantity of a header means.
@@ -111,6 +117,8 @@ STANDARD_QUANTITIES: Mapping[str, Standard] = MappingProxyType({
     "elastic_torque": Standard("elastic_torque", ("torque",)),
     "elastic_force": Standard("elastic_torque", ("force",)),
     "stiffness_true": Standard("stiffness_true", ("rotational_stiffness", "translational_stiffness")),
+    # a scheduling variable: any unit of the table, or a free one (see schedule_si)
+    "schedule": Standard("schedule", tuple(SI_NAMES)),
 })
 
 # longest first, so that "elastic_torque_Nm" is not read as quantity "elastic"
@@ -278,3 +286,38 @@ def same_unit(a: str, b: str) -> bool:
     ua, ub = UNITS.get(a), UNITS.get(b)
     return (ua is not None and ub is not None and ua.dimension == ub.dimension
             and math.isclose(ua.factor, ub.factor, rel_tol=1e-12))
+
+
+def free_unit_clash(unit: str) -> str | None:
+    """The table's spelling of a unit written in another case (``"Deg"`` → ``"deg"``), or None
+    when ``unit`` is in the table or is a free unit it does not know at all (``"%MVC"``, ``"V"``).
+
+    A scheduling variable may be in a free unit, kept unconverted; a unit the table knows by
+    another case is refused rather than kept unconverted by mistake.
+    """
+    if unit in UNITS:
+        return None
+    folded = unit.strip().casefold()
+    return next((name for name in UNITS if name.casefold() == folded), None)
+
+
+def schedule_si(values: np.ndarray, unit: str) -> tuple[np.ndarray, str]:
+    """A scheduling variable in SI units and the unit it is then in.
+
+    Parameters
+    ----------
+    values : array_like, shape (n,)
+        Values in ``unit``.
+    unit : str
+        A key of :data:`UNITS` (converted: ``deg`` → ``rad``, ``mm`` → ``m``, ``Nmm`` → ``N·m``)
+        or a free unit the table does not know (``%MVC``, ``V``, ``1``), kept as given.
+
+    Returns
+    -------
+    values : ndarray, shape (n,), float
+    unit : str
+        The SI unit (:data:`SI_NAMES`) or the free unit.
+    """
+    if unit in UNITS:
+        return to_si(values, unit), SI_NAMES[UNITS[unit].dimension]
+    return np.asarray(values, dtype=float), unit

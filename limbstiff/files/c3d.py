@@ -24,8 +24,8 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import ColumnSpec, check_unit, joint_kind
-from ..units import FIELD_DIMENSIONS, FIELDS, UNITS, to_si
+from .columns import READ_FIELDS, ColumnSpec, check_unit, in_si, joint_kind, schedule_unit
+from ..units import FIELD_DIMENSIONS, UNITS, free_unit_clash
 from .validate import checked_trial
 
 INSTALL_HINT = "pip install 'limbstiff[c3d]'"
@@ -61,6 +61,9 @@ def read_c3d(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
     except ImportError:
         raise TrialError(where, f"reading C3D files needs the optional extra: {INSTALL_HINT}") from None
     columns = {} if protocol is None else {f: c for f, c in protocol.columns.items() if c.header}
+    if getattr(getattr(protocol, "cycles", None), "marker", None) is not None:
+        raise TrialError(where, "a cycle marker ([cycles] marker) is not read from C3D files: give the cycles' "
+                                "length instead ([cycles] period_s), or export the trial as CSV with its trigger column")
     if "angle" not in columns or not ({"torque", "elastic_torque"} & set(columns)):
         raise TrialError(where, "a C3D file is read through a protocol whose [columns] name the angle and torque "
                                 "channels, e.g. angle = { header = \"LAnkleAngles\", component = \"x\" }")
@@ -68,7 +71,8 @@ def read_c3d(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
         c3d = ezc3d.c3d(str(path))
     except Exception as exc:  # noqa: BLE001 - ezc3d raises plain RuntimeErrors on bad files
         raise TrialError(where, f"not a readable C3D file ({' '.join(str(exc).split())})") from None
-    channels = {field: _channel(where, c3d, column) for field, column in columns.items() if field != "time"}
+    channels = {field: _channel(where, c3d, column, free=field == "schedule")
+                for field, column in columns.items() if field != "time"}
     kinds = {kind for kind, _, _ in channels.values()}
     if len(kinds) > 1:
         listing = ", ".join(f"{f}: {kind}" for f, (kind, _, _) in channels.items())
@@ -79,9 +83,9 @@ def read_c3d(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
     n = next(iter(channels.values()))[1].size
     first = int(c3d["header"]["points"]["first_frame"])
     start = first / float(c3d["header"]["points"]["frame_rate"])
-    values: dict[str, np.ndarray | None] = dict.fromkeys(FIELDS)
+    values: dict[str, np.ndarray | None] = dict.fromkeys(READ_FIELDS)
     values["time"] = start + np.arange(n) / rate
-    for field, (_, data, unit) in channels.items():
+    for field, (_, data, _) in channels.items():
         if data.size != n:
             raise TrialError(where, f"channel '{columns[field].header}' has {data.size} frames, the others {n}")
         bad = np.flatnonzero(~np.isfinite(data))
@@ -89,16 +93,27 @@ def read_c3d(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
             raise TrialError(where, f"channel '{columns[field].header}' has no value at {kind} frame {bad[0] + 1} "
                                     f"(t = {values['time'][bad[0]]:g} s; an occluded marker or a gap in the model "
                                     "output): fill or cut the gap before analysing")
-        values[field] = to_si(data, unit) * columns[field].scale
     specs = {}
-    for k, (field, (_, _, unit)) in enumerate(channels.items()):
-        check_unit(where, "channel", columns[field].header, unit, field.replace("_", " "), FIELD_DIMENSIONS[field])
+    for k, (field, (_, data, unit)) in enumerate(channels.items()):
+        if field == "schedule":
+            _schedule_unit(where, columns[field].header, unit)
+        else:
+            check_unit(where, "channel", columns[field].header, unit, field.replace("_", " "), FIELD_DIMENSIONS[field])
         specs[field] = ColumnSpec(field, columns[field].header, k, unit, columns[field].scale)
+        values[field] = in_si(data, specs[field])
     joint = joint_kind(where, specs, noun="channel")
     metadata = _metadata(c3d, columns, kind=kind, rate=rate, first=first)
     return checked_trial(path, raw, values, kind=joint,
                          protocol=protocol, name=name, metadata=metadata, warnings=[],
-                         locate=lambda k: f"{kind} frame {k + 1}")
+                         locate=lambda k: f"{kind} frame {k + 1}", schedule_unit=schedule_unit(specs))
+
+
+def _schedule_unit(where: str, label: str, unit: str) -> None:
+    """Error if the scheduling variable's unit is one the table knows by another case (``Deg``)."""
+    clash = free_unit_clash(unit)
+    if clash:
+        raise TrialError(where, f"channel '{label}': unit '{unit}' of the scheduling variable is not in the unit "
+                                f"table, '{clash}' is: give unit = \"{clash}\" in [columns.schedule]")
 
 
 def _strings(c3d, group: str, name: str) -> list[str]:
@@ -113,9 +128,10 @@ def _parameter(c3d, group: str, name: str):
         return None
 
 
-def _channel(where: str, c3d, column) -> tuple[str, np.ndarray, str]:
+def _channel(where: str, c3d, column, free: bool = False) -> tuple[str, np.ndarray, str]:
     """(``analog`` or ``point``, values in the file's or the protocol's unit, that unit) of one
-    mapped channel."""
+    mapped channel; ``free``: the file's unit may be one the table does not know (the scheduling
+    variable's ``V``, ``%MVC``), kept unconverted."""
     label = column.header.strip()
     analog, points = _strings(c3d, "ANALOG", "LABELS"), _strings(c3d, "POINT", "LABELS")
     if label in analog:
@@ -124,7 +140,7 @@ def _channel(where: str, c3d, column) -> tuple[str, np.ndarray, str]:
         k = analog.index(label)
         data = np.asarray(c3d["data"]["analogs"][0, k, :], dtype=float)
         units = _strings(c3d, "ANALOG", "UNITS")
-        return "analog", data, _unit(where, label, column.unit, units[k] if k < len(units) else "")
+        return "analog", data, _unit(where, label, column.unit, units[k] if k < len(units) else "", free)
     if label in points:
         if column.component is None:
             raise TrialError(where, f"'{label}' is a point channel with components x, y, z: give component = "
@@ -136,7 +152,7 @@ def _channel(where: str, c3d, column) -> tuple[str, np.ndarray, str]:
                                     "often normalised by body mass, N·mm/kg, whatever POINT:MOMENT_UNITS says): give "
                                     "unit = \"Nmm\" (and scale = the body mass in kg if normalised) in its [columns] "
                                     "entry")
-        return "point", data, _unit(where, label, column.unit, _point_unit(c3d, label))
+        return "point", data, _unit(where, label, column.unit, _point_unit(c3d, label), free)
     known = ", ".join(analog + points) or "none"
     raise TrialError(where, f"no channel labelled '{label}' (analog and point labels: {_shorten(known)}); "
                             "check the header of this quantity in the protocol's [columns]")
@@ -153,12 +169,13 @@ def _point_unit(c3d, label: str) -> str:
     return (_strings(c3d, "POINT", unit) or [""])[0]
 
 
-def _unit(where: str, label: str, given: str | None, in_file: str) -> str:
-    """The protocol's unit, else the file's (known to limbstiff), else a one-line error."""
+def _unit(where: str, label: str, given: str | None, in_file: str, free: bool = False) -> str:
+    """The protocol's unit, else the file's (known to limbstiff, or any with ``free``), else a
+    one-line error."""
     if given:
         return given
-    if in_file in UNITS:
-        return in_file
+    if in_file in UNITS or (free and in_file.strip()):
+        return in_file.strip() if free else in_file
     said = f"unit '{in_file}'" if in_file else "no unit"
     raise TrialError(where, f"channel '{label}' has {said} in the file: give its unit in the protocol's [columns] "
                             f"entry (unit = \"deg\", \"Nm\", …)")

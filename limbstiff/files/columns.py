@@ -10,13 +10,20 @@ from __future__ import annotations
 
 from typing import NamedTuple, Sequence
 
+import numpy as np
+
 from ..errors import TrialError
 from ..units import (DIMENSION_KIND, FIELD_DIMENSIONS, FIELDS, STANDARD_QUANTITIES, UNITS,
-                    accepted_units, canonical_unit, parse_standard_header, same_unit, split_header,
-                    unit_in_header)
+                    accepted_units, canonical_unit, free_unit_clash, parse_standard_header, same_unit,
+                    schedule_si, split_header, to_si, unit_in_header)
 
 _LABELS = {"time": "time", "angle": "angle/position", "torque": "torque/force",
-           "elastic_torque": "elastic torque/force", "stiffness_true": "reference stiffness"}
+           "elastic_torque": "elastic torque/force", "stiffness_true": "reference stiffness",
+           "schedule": "scheduling variable", "marker": "cycle marker ([cycles] marker)"}
+
+#: Every Trial field a reader fills: :data:`~limbstiff.units.FIELDS`, then the scheduling variable
+#: (``[columns.schedule]`` or a ``schedule_<unit>`` header) and the cycle marker (``[cycles] marker``).
+READ_FIELDS = (*FIELDS, "schedule", "marker")
 
 
 class ColumnSpec(NamedTuple):
@@ -25,13 +32,14 @@ class ColumnSpec(NamedTuple):
     Parameters
     ----------
     field : str
-        Trial field (see :data:`~limbstiff.units.FIELDS`).
+        Trial field (see :data:`READ_FIELDS`).
     header : str
         Column header (or variable name, or MAT path) in the file.
     index : int
         0-based position of that header in the list given to :func:`resolve_columns`.
     unit : str
-        Unit of the values in the file (a key of :data:`~limbstiff.units.UNITS`).
+        Unit of the values in the file (a key of :data:`~limbstiff.units.UNITS`; for the
+        scheduling variable also a free unit, for the marker ``""``: raw values).
     scale : float
         Factor applied after conversion to SI units.
     """
@@ -76,7 +84,9 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
     -------
     dict of str to ColumnSpec
         By Trial field; ``time`` (if ``need_time``) and ``angle``, and ``torque`` or
-        ``elastic_torque``.
+        ``elastic_torque``; ``schedule`` when the protocol maps it or a ``schedule_<unit>``
+        header is present (its unit may be a free one, kept unconverted); ``marker`` when the
+        protocol's ``[cycles] marker`` names a column.
 
     Raises
     ------
@@ -91,11 +101,14 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
                     f"{'headers' if noun == 'column' else noun + 's'} found: {found}")
     located = {field: _locate(file, field, spec.header) for field, spec in mapped.items()
                if spec.header is not None}
+    marker = getattr(getattr(protocol, "cycles", None), "marker", None)
+    if marker is not None:
+        located["marker"] = _locate(file, "marker", marker)
     claimed = {headers[index] for index in located.values()}
     standard = _standard_headers(where, headers, row, claimed, noun)
     covered = _covered(mapped)
     columns: dict[str, ColumnSpec] = {}
-    for field in FIELDS:
+    for field in (*FIELDS, "schedule"):
         spec = mapped.get(field)
         if spec is not None and spec.header is not None:
             columns[field] = _mapped_column(file, field, spec, located[field], columns)
@@ -105,8 +118,36 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
         column = _standard_column(file, field, spec, standard, lenient=bool(claimed))
         if column is not None:
             columns[field] = column
+    if marker is not None:
+        columns["marker"] = _marker_column(file, located["marker"], columns)
     _check_complete(file, columns, need_time)
     return columns
+
+
+def _marker_column(file: _Listing, index: int, columns: dict[str, ColumnSpec]) -> ColumnSpec:
+    """The trigger column ``[cycles] marker`` names: raw values, no unit, no scale."""
+    header = file.headers[index]
+    other = [_LABELS[c.field] for c in columns.values() if c.header == header]
+    if other:
+        raise TrialError(file.where, f"{file.noun} '{header}' is given by the protocol for both "
+                                     f"{other[0]} and {_LABELS['marker']}")
+    return ColumnSpec("marker", header, index, "", 1.0)
+
+
+def in_si(values, column: ColumnSpec) -> np.ndarray:
+    """A column's values as its Trial field holds them: in SI units times the scale; the
+    scheduling variable in a free unit unconverted (times the scale); the marker raw."""
+    if column.field == "marker":
+        return np.asarray(values, dtype=float)
+    if column.field == "schedule":
+        return schedule_si(values, column.unit)[0] * column.scale
+    return to_si(values, column.unit) * column.scale
+
+
+def schedule_unit(columns: dict[str, ColumnSpec]) -> str | None:
+    """The unit of the trial's ``schedule`` once read (``rad``, ``N·m``, or the free unit), or None."""
+    column = columns.get("schedule")
+    return None if column is None else schedule_si(np.zeros(0), column.unit)[1]
 
 
 def _covered(mapped) -> set[str]:
@@ -195,7 +236,7 @@ def _mapped_column(file: _Listing, field: str, spec, index: int,
     if unit is None:
         raise TrialError(where, f"{noun} '{header}' ({label}) has no unit in its name; "
                                 f"give one in the protocol ([columns.{field}] unit)")
-    check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
+    _check_field_unit(where, noun, header, unit, field, label)
     other = [_LABELS[c.field] for c in columns.values() if c.header == header]
     if other:
         raise TrialError(where, f"{noun} '{header}' is given by the protocol for both "
@@ -221,8 +262,9 @@ def _standard_column(file: _Listing, field: str, spec, standard: dict[int, tuple
         left alone (the reader lists it as ignored) instead of being an error.
     """
     where, noun, label = file.where, file.noun, _LABELS[field]
+    free = field == "schedule"          # a free unit (%MVC) is the scheduling variable's own, not a misspelling
     candidates = [(i, q, u) for i, (q, u) in standard.items()
-                  if STANDARD_QUANTITIES[q].field == field and not (lenient and u not in UNITS)]
+                  if STANDARD_QUANTITIES[q].field == field and not (lenient and u not in UNITS and not free)]
     if not candidates:
         return None
     if len(candidates) > 1:
@@ -235,7 +277,9 @@ def _standard_column(file: _Listing, field: str, spec, standard: dict[int, tuple
     if spec is not None and spec.unit:
         _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", file.row[index]))
         unit = spec.unit
-        check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
+        _check_field_unit(where, noun, header, unit, field, label)
+    elif free:
+        _check_field_unit(where, noun, header, unit, field, label)
     else:
         check_unit(where, noun, header, unit, quantity.replace("_", " "),
                     STANDARD_QUANTITIES[quantity].dimensions, hint=True)
@@ -316,6 +360,19 @@ def _agree(where, noun, header, first, second) -> None:
                                 f"{who2} says '{unit2}'")
 
 
+def _check_field_unit(where, noun, header, unit, field, label) -> None:
+    """Error unless ``unit`` suits ``field``: a unit of its dimensions; for the scheduling
+    variable any unit of the table or a free one, though not one the table knows by another case."""
+    if field != "schedule":
+        check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
+        return
+    clash = free_unit_clash(unit)
+    if clash:
+        raise TrialError(where, f"{noun} '{header}': unit '{unit}' of {label} is not in the unit table, "
+                                f"'{clash}' is: write '{clash}' (converted to SI), or a unit the table does "
+                                "not know (kept as given)")
+
+
 def check_unit(where, noun, header, unit, label, dimensions, hint=False) -> None:
     """Error unless ``unit`` is a known unit of one of ``dimensions``."""
     accepted = ", ".join(accepted_units(dimensions))
@@ -335,7 +392,7 @@ def joint_kind(where: str, columns: dict[str, ColumnSpec], noun: str = "column")
     TrialError
         If rotational and translational units are mixed.
     """
-    kinds = {c.header: DIMENSION_KIND[UNITS[c.unit].dimension] for c in columns.values()}
+    kinds = {c.header: DIMENSION_KIND[UNITS[c.unit].dimension] for c in columns.values() if c.field in FIELDS}
     rotational = [h for h, k in kinds.items() if k == "rotational"]
     translational = [h for h, k in kinds.items() if k == "translational"]
     if rotational and translational:

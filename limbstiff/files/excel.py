@@ -22,8 +22,8 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from ..units import FIELDS, UNITS, to_si
-from .columns import ColumnSpec, joint_kind, resolve_columns
+from ..units import UNITS
+from .columns import READ_FIELDS, ColumnSpec, in_si, joint_kind, resolve_columns, schedule_unit
 from .dialect import is_number, looks_like, shown, unit_cell
 from .validate import checked_trial
 
@@ -79,7 +79,7 @@ def read_xlsx(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     ignored = [h for i, h in enumerate(top.headers) if i not in used and h]
     warnings = ["ignored column(s): " + ", ".join(f"'{h}'" for h in ignored)] if ignored else []
     return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=top.metadata,
-                         warnings=warnings, locate=lambda k: f"row {numbers[k]}")
+                         warnings=warnings, locate=lambda k: f"row {numbers[k]}", schedule_unit=schedule_unit(columns))
 
 
 def _open(where: str, raw: bytes):
@@ -191,8 +191,8 @@ def _chain(first, rows):
 def _values(where: str, columns: dict[str, ColumnSpec], numbers: list[int],
             cells: dict[int, list]) -> dict[str, np.ndarray | None]:
     """Numeric SI arrays of the used columns; every cell checked, none coerced."""
-    values: dict[str, np.ndarray | None] = dict.fromkeys(FIELDS)
-    for field in FIELDS:
+    values: dict[str, np.ndarray | None] = dict.fromkeys(READ_FIELDS)
+    for field in READ_FIELDS:
         column = columns.get(field)
         if column is None:
             continue
@@ -202,7 +202,7 @@ def _values(where: str, columns: dict[str, ColumnSpec], numbers: list[int],
             k = ok.index(False)
             time = None if field == "time" else values["time"][k]
             raise TrialError(where, _bad_cell(raw[k], column, numbers[k], time))
-        values[field] = to_si(np.array(raw, dtype=float), column.unit) * column.scale
+        values[field] = in_si(np.array(raw, dtype=float), column)
     return values
 
 

@@ -29,8 +29,8 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import ColumnSpec, joint_kind, resolve_columns
-from ..units import FIELDS, parse_standard_header, split_header, to_si
+from .columns import READ_FIELDS, ColumnSpec, in_si, joint_kind, resolve_columns, schedule_unit
+from ..units import parse_standard_header, split_header
 from .validate import checked_trial
 
 #: Names (any case) of scalar variables giving the sample rate in Hz.
@@ -84,19 +84,19 @@ def read_mat(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
             arrays[column.header] = _vector(where, column.header, variables[column.header])
     first = columns["time"] if has_time else columns["angle"]
     n = arrays[first.header].size
-    values: dict[str, np.ndarray | None] = dict.fromkeys(FIELDS)
+    values: dict[str, np.ndarray | None] = dict.fromkeys(READ_FIELDS)
     used = {_root(c.header) for c in columns.values()}
     if not has_time:
         rate, rate_name = _rate(where, variables, protocol)
         values["time"] = np.arange(n) / rate
         used.add(rate_name)
-    for field in FIELDS:
+    for field in READ_FIELDS:
         column = columns.get(field)
         if column is not None:
             values[field] = _channel(where, column, arrays[column.header], first.header, n, values["time"])
     metadata, warnings = _leftovers({k: v for k, v in variables.items() if k not in used})
     return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
-                         warnings=warnings, locate=lambda k: f"sample {k + 1}")
+                         warnings=warnings, locate=lambda k: f"sample {k + 1}", schedule_unit=schedule_unit(columns))
 
 
 def _protocol_arrays(where: str, variables: dict, protocol) -> tuple[dict[str, np.ndarray], bool]:
@@ -110,6 +110,9 @@ def _protocol_arrays(where: str, variables: dict, protocol) -> tuple[dict[str, n
         True when the protocol maps time or a variable has a standard time name.
     """
     mapped = {f: c.header.strip() for f, c in protocol.columns.items() if c.header} if protocol else {}
+    marker = getattr(getattr(protocol, "cycles", None), "marker", None)
+    if marker is not None:
+        mapped["marker"] = marker.strip()
     names = {split_header(v)[0] for v in variables}
     # a plain name of a variable with a unit ('Zeit' for 'Zeit_ms') is found by resolve_columns
     arrays = {expr: _lookup(where, variables, expr) for expr in mapped.values()
@@ -146,7 +149,7 @@ def _channel(where: str, column: ColumnSpec, data: np.ndarray, first: str, n: in
         what = "NaN" if np.isnan(data[k]) else "infinite value"
         at = "" if column.field == "time" else f" (t = {time[k]:g} s)"
         raise TrialError(where, f"{what} in variable '{column.header}' at sample {k + 1}{at}")
-    return to_si(data, column.unit) * column.scale
+    return in_si(data, column)
 
 
 def is_v73(raw: bytes) -> bool:

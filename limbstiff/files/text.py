@@ -27,9 +27,8 @@ import pandas as pd
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import ColumnSpec, joint_kind, resolve_columns
+from .columns import READ_FIELDS, ColumnSpec, in_si, joint_kind, resolve_columns, schedule_unit
 from .dialect import DECIMAL_COMMA, SNIFF_LINES, binary_kind, detect_layout, shown
-from ..units import FIELDS, to_si
 from .validate import checked_trial
 
 _NAN_WORDS = {"nan", "-nan", "+nan", "na", "n/a", "#n/a", "null", "none"}
@@ -80,7 +79,8 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     numbers, source = _data_rows(raw, body, layout.rows, skipped=len(rest) - len(layout.rows))
     values = _parse(where, layout.headers, columns, source, numbers, layout.delimiter, layout.decimal)
     return checked_trial(path, source_bytes, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
-                         warnings=notes + _ignored(layout.headers, columns), locate=lambda k: f"line {numbers[k]}")
+                         warnings=notes + _ignored(layout.headers, columns), locate=lambda k: f"line {numbers[k]}",
+                         schedule_unit=schedule_unit(columns))
 
 
 def _data_rows(raw: bytes, body: _Body | None, rows: list, skipped: int):
@@ -254,8 +254,8 @@ def _parse(where, headers, columns, source, numbers, delimiter, decimal) -> dict
         raise
     except ValueError:  # some cell is not a number: read text, find it and say which
         frame = _read_rows(**read, dtype=object)
-    values: dict[str, np.ndarray | None] = dict.fromkeys(FIELDS)
-    for field in FIELDS:
+    values: dict[str, np.ndarray | None] = dict.fromkeys(READ_FIELDS)
+    for field in READ_FIELDS:
         column = columns.get(field)
         if column is None:
             continue
@@ -274,7 +274,7 @@ def _parse(where, headers, columns, source, numbers, delimiter, decimal) -> dict
                 k = int(np.flatnonzero(bad)[0])
                 raise TrialError(where, _bad_cell(cells.iloc[k], numeric[k], column, numbers[k],
                                                   None if field == "time" else values["time"][k], decimal))
-        values[field] = to_si(numeric, column.unit) * column.scale
+        values[field] = in_si(numeric, column)
     return values
 
 

@@ -13,7 +13,7 @@ import pandas as pd
 
 from ..trial import Trial
 from .atomic import atomic_write_text
-from ..units import FIELDS
+from ..units import FIELDS, UNITS, canonical_unit
 
 _HEADERS = {
     "rotational": ("time_s", "angle_rad", "torque_Nm", "elastic_torque_Nm", "stiffness_true_Nm_per_rad"),
@@ -27,7 +27,11 @@ def write_trial(trial: Trial, path) -> Path:
     Metadata become ``# key: value`` lines; the header is ``time_s,angle_rad,torque_Nm``
     (``time_s,position_m,force_N`` for translational trials), then ``elastic_torque_Nm`` /
     ``elastic_force_N`` and ``stiffness_true_Nm_per_rad`` / ``stiffness_true_N_per_m`` when
-    present. Floats are written at full precision, so :func:`read_trial` gives the same arrays.
+    present; then ``schedule_<unit>`` when the trial has a scheduling variable (its SI unit in
+    the table's ASCII spelling: ``schedule_rad``, ``schedule_Nm``; a free unit as it is:
+    ``schedule_%MVC``) and ``marker`` when it has a cycle marker. Floats are written at full
+    precision, so :func:`read_trial` gives the same arrays (the marker is read back with a
+    protocol whose ``[cycles]`` says ``marker = "marker"``; without one it is an ignored column).
 
     Parameters
     ----------
@@ -52,6 +56,27 @@ def write_trial(trial: Trial, path) -> Path:
         array = getattr(trial, field)
         if array is not None:
             data[header] = np.asarray(array, dtype=float)
+    if trial.schedule is not None:
+        data[schedule_header(trial.schedule_unit)] = np.asarray(trial.schedule, dtype=float)
+    if trial.marker is not None:
+        data["marker"] = np.asarray(trial.marker, dtype=float)
     body = pd.DataFrame(data).to_csv(index=False, lineterminator="\n")
     atomic_write_text(path, "".join(lines) + body)
     return Path(path)
+
+
+def schedule_header(unit: str) -> str:
+    """The standard header of a scheduling variable in ``unit``: ``schedule_<unit>``, a unit of the
+    table in its first (ASCII) spelling (``N·m`` → ``schedule_Nm``), a free unit as it is
+    (``schedule_%MVC``), which the readers keep unconverted.
+
+    Raises
+    ------
+    ValueError
+        A unit that cannot stand in a CSV header (a comma, a quote, a line break).
+    """
+    if unit in UNITS:
+        return f"schedule_{canonical_unit(unit)}"
+    if any(c in unit for c in ',;\t"\n\r') or unit != unit.strip():
+        raise ValueError(f"schedule unit {unit!r} cannot be written in a CSV header")
+    return f"schedule_{unit}"

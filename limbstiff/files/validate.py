@@ -42,7 +42,8 @@ def read_bytes(path: Path) -> bytes:
 
 def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None], *, kind: str,
                   protocol=None, name: str | None = None, metadata: Mapping[str, str] | None = None,
-                  warnings: list[str] | None = None, locate: Callable[[int], str]) -> Trial:
+                  warnings: list[str] | None = None, locate: Callable[[int], str],
+                  schedule_unit: str | None = None) -> Trial:
     """Check and regularise the arrays read from one file, and build the Trial.
 
     Parameters
@@ -53,8 +54,11 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
         The file's content, hashed into ``source_sha256``.
     values : mapping of str to ndarray or None
         By Trial field (``time`` in s, ``angle`` in rad or m, ``torque`` and
-        ``elastic_torque`` in N·m or N, ``stiffness_true`` in N·m/rad or N/m), finite, all of
-        the same length; None for fields the file does not have.
+        ``elastic_torque`` in N·m or N, ``stiffness_true`` in N·m/rad or N/m; ``schedule`` in
+        ``schedule_unit``, ``marker`` raw), finite, all of the same length; None (or absent) for
+        fields the file does not have. Resampling interpolates every field linearly but the
+        marker, which takes the largest value recorded since the grid's previous sample (a
+        trigger's rising edges and short pulses are kept, never smeared into ramps).
     kind : {"rotational", "translational"}
     protocol : Protocol or None
         Its ``sample_period`` (s), if set, is the period every trial is resampled to.
@@ -65,6 +69,8 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
         What the reader noticed (ignored columns…); they follow the resampling notes.
     locate : callable
         ``locate(k)`` says where sample ``k`` (0-based) is in the file, e.g. ``"line 7"``.
+    schedule_unit : str or None
+        The unit of ``values["schedule"]`` (an SI unit or a free one); None without a schedule.
 
     Returns
     -------
@@ -92,9 +98,12 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
     bridged = np.zeros(grid.size, dtype=bool)
     for a, b in gaps:
         bridged |= (grid > a) & (grid < b)
+    if values.get("schedule") is None:
+        schedule_unit = None
     return Trial(name=name if name is not None else path.stem, kind=kind, metadata=dict(metadata or {}),
                  source=where, source_sha256=hashlib.sha256(raw).hexdigest(),
-                 warnings=(*notes, *(warnings or ())), bridged=bridged if gaps else None, **values)
+                 warnings=(*notes, *(warnings or ())), bridged=bridged if gaps else None,
+                 schedule_unit=schedule_unit, **values)
 
 
 def _check_time(where: str, time: np.ndarray, locate: Callable[[int], str]) -> None:
@@ -207,7 +216,7 @@ def _to_period(where: str, values: dict, period: float, warnings: list[str]) -> 
         from scipy.signal import butter, sosfiltfilt
         cutoff = 0.8 * 0.5 / period
         sos = butter(8, cutoff, fs=1 / step, output="sos")
-        values = {f: (v if v is None or f == "time" else sosfiltfilt(sos, v)) for f, v in values.items()}
+        values = {f: (v if v is None or f in ("time", "marker") else sosfiltfilt(sos, v)) for f, v in values.items()}
         note = f", low-pass filtered at {cutoff:.4g} Hz first (zero-phase Butterworth)"
     count = int(np.floor((time[-1] - time[0]) / period * (1 + 1e-12))) + 1
     if count < MIN_SAMPLES:
@@ -220,6 +229,26 @@ def _to_period(where: str, values: dict, period: float, warnings: list[str]) -> 
 
 def _interpolate(values: dict, grid: np.ndarray) -> dict:
     time = values["time"]
-    out = {f: (None if v is None else np.interp(grid, time, v)) for f, v in values.items()}
+    out = {f: (None if v is None else _held(time, v, grid) if f == "marker" else np.interp(grid, time, v))
+           for f, v in values.items()}
     out["time"] = grid
+    return out
+
+
+def _held(time: np.ndarray, values: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """A marker on a new time grid: at each grid time the largest value recorded since the grid's
+    previous time (after it, up to and including this one), else the last value before it.
+
+    A rising edge appears at the first grid time at or after it, as with the previous sample; a
+    pulse shorter than the new step is kept rather than fall between two grid times.
+    """
+    values = np.asarray(values, dtype=float)
+    out = np.full(grid.size, -np.inf)
+    bucket = np.searchsorted(grid, time, side="left")       # the first grid time at or after each sample
+    inside = bucket < grid.size
+    np.maximum.at(out, bucket[inside], values[inside])
+    empty = np.isneginf(out)
+    if empty.any():
+        previous = np.clip(np.searchsorted(time, grid[empty], side="right") - 1, 0, time.size - 1)
+        out[empty] = values[previous]
     return out
