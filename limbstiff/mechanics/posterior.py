@@ -284,9 +284,12 @@ def _with_mechanics(problem, noise: np.ndarray, inertia_prior: Prior, damping_pr
     amplitudes : ndarray, shape (n, k)
     warnings : list of str
     """
-    coef = None
+    coef, seen = None, {}
     for j, th in enumerate(noise):
-        _, mean, cov = problem.conditional(th)
+        key = th.tobytes()                # a walker that stays put repeats its state: one pass for it
+        if key not in seen:
+            seen[key] = problem.conditional(th)[1:]
+        mean, cov = seen[key]
         if coef is None:
             coef = np.empty((len(noise), len(mean)))
         coef[j] = rng.multivariate_normal(mean, cov)

@@ -23,6 +23,11 @@ from .noise import NoiseLevels
 from .steps import ModelSteps
 
 
+#: Above this many channels the quadratic form is taken from the innovations by a matrix product
+#: (:func:`marginal`); at or below it, by the kernel's loop (whose results are the ones recorded).
+MANY_CHANNELS = 4
+
+
 def _pass_args(steps: ModelSteps, noise: NoiseLevels, channels=None, slopes=None) -> tuple:
     chans = steps.channels if channels is None else np.ascontiguousarray(channels, dtype=float)
     return (steps.increments, steps.deflection, chans, steps.slopes if slopes is None else slopes,
@@ -103,6 +108,12 @@ def integrate_out(sum_log_s: float, a: np.ndarray, n: int) -> Marginal:
 def marginal(steps: ModelSteps, noise: NoiseLevels) -> Marginal:
     """The likelihood of ``noise`` with the coefficients of channels 1… integrated out (module
     docstring), from one filter pass over the channels."""
+    if len(steps.channels) > MANY_CHANNELS:
+        # the form from the innovations by one matrix product: the kernel's loop over channel
+        # pairs grows as c² per step (a curve's weights make c ~ 20)
+        args = _pass_args(steps, noise)
+        e, var = kernels.kalman_row_innovations(args[0], args[1], np.ascontiguousarray(args[2].T), *args[3:])
+        return integrate_out(float(np.sum(np.log(var))), (e.T / var) @ e, steps.channels.shape[1])
     sum_log_s, a = kernels.kalman_quadratic(*_pass_args(steps, noise))
     return integrate_out(sum_log_s, a, steps.channels.shape[1])
 
