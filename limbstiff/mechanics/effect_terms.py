@@ -98,3 +98,17 @@ def without_effects(torque: np.ndarray, terms: EffectTerms | None, amplitudes) -
     if terms is None or not len(terms):
         return torque
     return torque - np.asarray(amplitudes, dtype=float) @ terms.columns
+
+
+def joined(*terms: EffectTerms | None) -> EffectTerms | None:
+    """Several sets of terms as one, in order (None when there are none): the effects in the model
+    and the stiffness curve's weights enter the model alike."""
+    terms = tuple(t for t in terms if t is not None and len(t))
+    if not terms:
+        return None
+    if len(terms) == 1:
+        return terms[0]
+    return EffectTerms(names=sum((t.names for t in terms), ()), shapes=sum((t.shapes for t in terms), ()),
+                       amplitude_names=sum((t.amplitude_names for t in terms), ()),
+                       units=sum((t.units for t in terms), ()), columns=np.vstack([t.columns for t in terms]),
+                       loglik_gains=sum((t.loglik_gains or (None,) * len(t) for t in terms), ()))

@@ -20,7 +20,7 @@ from ..protocol import Protocol
 from ..statespace.noise import NoiseLevels
 from ..statespace.steps import kalman_decimation
 from .angle_error import NO_EFFECT, AngleErrorEffect, angle_error_effect
-from .effect_terms import EffectFit, EffectTerms, effect_fits, without_effects
+from .effect_terms import EffectFit, EffectTerms, effect_fits, joined, without_effects
 from .least_squares import LeastSquaresFit, least_squares
 from .fixed_b import bartlett_fixed_b
 from .likelihood import MechanicsFit, MechanicsProblem, kalman_mechanics, robust_covariance
@@ -61,6 +61,10 @@ class Identification:
     effects : tuple of EffectFit
         The unmodelled effects put in the model, their amplitudes identified with m and b
         (``limbstiff analyze --effect``); none by default.
+    basis : tuple of EffectFit
+        The weights of the stiffness's curve over a cycle's phase or a schedule
+        (:mod:`limbstiff.scheduled`), identified with m, b and the effects; they follow the
+        effects in :attr:`coefficients`. None by default.
     """
 
     method: str
@@ -76,6 +80,7 @@ class Identification:
     expected_inertia: tuple[float, float] | None = None
     angle_error: AngleErrorEffect = NO_EFFECT
     effects: tuple[EffectFit, ...] = ()
+    basis: tuple[EffectFit, ...] = ()
 
     @property
     def given(self) -> bool:
@@ -91,8 +96,10 @@ class Identification:
 
     @property
     def coefficients(self) -> np.ndarray:
-        """Medians of the model's linear coefficients (m, b, the effects' amplitudes…), shape (2 + k,)."""
-        return np.array([self.inertia.median, self.damping.median] + [e.amplitude.median for e in self.effects])
+        """Medians of the model's linear coefficients (m, b, the effects' amplitudes…, the curve's
+        weights…), shape (2 + k,)."""
+        return np.array([self.inertia.median, self.damping.median] +
+                        [e.amplitude.median for e in self.effects + self.basis])
 
     @property
     def coefficient_draws(self) -> np.ndarray | None:
@@ -109,7 +116,7 @@ class Identification:
     @property
     def coefficient_covariance(self) -> np.ndarray:
         """Covariance of (m, b, amplitudes…), shape (2 + k, 2 + k): :attr:`covariance` without effects."""
-        if not self.effects or self.posterior is None:
+        if not (self.effects or self.basis) or self.posterior is None:
             return self.covariance
         return np.atleast_2d(np.cov(self.coefficient_draws.T))
 
@@ -136,7 +143,8 @@ class Identification:
 
 
 def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random.Generator, seed: int,
-                       where: str = "trial", effects: EffectTerms | None = None) -> Identification:
+                       where: str = "trial", effects: EffectTerms | None = None,
+                       basis: EffectTerms | None = None) -> Identification:
     """Inertia and damping: the protocol's where given, else least squares → ML → emcee posterior.
 
     Parameters
@@ -154,6 +162,9 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     effects : EffectTerms, optional
         Effects put in the model: their amplitudes are identified with m and b (also when m and
         b are given), and their uncertainty carried with them.
+    basis : EffectTerms, optional
+        The torques of the stiffness curve's weights (:mod:`limbstiff.scheduled`): linear
+        coefficients like the effects' amplitudes, after them.
 
     Returns
     -------
@@ -166,10 +177,11 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     """
     m, b = protocol.inertia, protocol.damping
     given = (m, b) if m is not None and b is not None else None
-    if given is not None and not effects:
+    if given is not None and not effects and not basis:
         return Identification("given", Interval.fixed(m), Interval.fixed(b), np.zeros((2, 2)))
     decimation = kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
-    problem, guess = mechanics_problem(filtered, given=given, extra=None if not effects else effects.columns)
+    extra = [t.columns for t in (effects, basis) if t]
+    problem, guess = mechanics_problem(filtered, given=given, extra=np.vstack(extra) if extra else None)
     fit = kalman_mechanics(problem, guess=guess)
     post = sample(problem, start=fit, inertia_prior=protocol.inertia_prior, damping_prior=protocol.damping_prior,
                   rng=rng, seed=seed, given=given)
@@ -180,14 +192,16 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     post = (_with_angle_error(post, effect, rng) if applied
             else dataclasses.replace(post, warnings=post.warnings + refused))
     out, draws = _mechanics_intervals(post, (m, b), protocol.ci_level, where, reflex_hint=not effects)
-    if effects:
-        # the least squares the checks compare with: on the torque less the effects at their
-        # maximum-likelihood amplitudes (least squares alone has no term for them)
-        guess = _least_squares(filtered, without_effects(filtered.torque, effects, fit.amplitudes))
+    if effects or basis:
+        # the least squares the checks compare with: on the torque less the effects (and the curve)
+        # at their maximum-likelihood amplitudes (least squares alone has no term for them)
+        guess = _least_squares(filtered, without_effects(filtered.torque, joined(effects, basis), fit.amplitudes))
+    k = 0 if effects is None else len(effects)
     return Identification("given" if given is not None else "kalman+emcee", out[0], out[1], np.cov(draws.T),
                           least_squares=guess, maximum_likelihood=fit, posterior=post,
                           noise_levels=post.noise_levels(), decimation=decimation, warnings=tuple(post.warnings),
-                          angle_error=effect, effects=effect_fits(effects, post.amplitudes, protocol.ci_level))
+                          angle_error=effect, effects=effect_fits(effects, post.amplitudes[:, :k], protocol.ci_level),
+                          basis=effect_fits(basis, post.amplitudes[:, k:], protocol.ci_level))
 
 
 def mechanics_problem(filtered: Filtered, *, given: tuple[float, float] | None = None,
