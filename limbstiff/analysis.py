@@ -36,10 +36,11 @@ from .statespace.noise import NoiseLevels
 from .statespace.steps import kalman_decimation, step_index
 from .filtered import Filtered, filter_trial
 from .files import read_trial
-from .mechanics.effect_terms import EffectTerms
+from .mechanics.effect_terms import EffectTerms, joined
 from .mechanics.identification import Identification, identify_mechanics
 from .protocol import Protocol, load_protocol
 from .result import DerivedSettings, StiffnessResult, result_units, software
+from .scheduled import run as scheduled
 from .trial import Trial
 from .trial_level import FigureSamples, TrialLevel, course_draws_for, figure_samples, trial_level
 
@@ -134,13 +135,13 @@ def derive_settings(filtered: Filtered, protocol: Protocol, *, where: str = "tri
 
 
 def _mechanics(filtered: Filtered, protocol: Protocol, *, seed: int, where: str,
-               effects: EffectTerms | None = None) -> Identification | None:
+               effects: EffectTerms | None = None, basis: EffectTerms | None = None) -> Identification | None:
     """m and b for the external variant (with the check of the protocol's expected range)."""
     if filtered.variant != "external":
         return None
     try:
         ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=where,
-                                   effects=effects)
+                                   effects=effects, basis=basis)
     except TrialError as exc:
         hint = sign_hint(filtered)
         raise (TrialError(exc.source, f"{exc.problem}; {hint}") if hint else exc) from None
@@ -187,16 +188,19 @@ def _band(estimate: estimators.Estimate, ident: Identification | None, coupling:
 def _estimate_and_probe(trial: Trial, filtered: Filtered, protocol: Protocol, derived: DerivedSettings,
                         ident: Identification | None,
                         terms: EffectTerms | None) -> tuple[estimators.Estimate, ShapeProfile | None]:
-    """The estimate, with the sensitivity to the effects in the model, or to the reflex the
-    ``reflex`` check probes for (:func:`reflex_probe`; at the estimator's noise levels when m and b
-    are given, which then runs twice)."""
+    """The estimate, with the sensitivity to the terms in the model (effects, a curve's weights)
+    and, last, to the reflex the ``reflex`` check probes for (:func:`reflex_probe`; at the
+    estimator's noise levels when m and b are given, which then runs twice)."""
+    def extra(probe):
+        rows = ([terms.columns] if terms is not None else []) + ([probe.column[None]] if probe is not None else [])
+        return np.vstack(rows) if rows else None
+
     probe = reflex_probe(trial, filtered, protocol, ident, None if ident is None else ident.noise_levels)
-    extra = terms.columns if terms is not None else (None if probe is None else probe.column[None])
-    estimate = _estimate(filtered, protocol, derived, ident, extra)
+    estimate = _estimate(filtered, protocol, derived, ident, extra(probe))
     if probe is None and ident is not None and ident.given:
         probe = reflex_probe(trial, filtered, protocol, ident, estimate.fit.noise)
         if probe is not None:           # the same noise levels: the same course, with the probe's sensitivity
-            estimate = _estimate(filtered, protocol, derived, ident, probe.column[None], noise=estimate.fit.noise)
+            estimate = _estimate(filtered, protocol, derived, ident, extra(probe), noise=estimate.fit.noise)
     return estimate, probe
 
 
@@ -208,22 +212,45 @@ def _reflex_shift(probe: ShapeProfile | None, estimate: estimators.Estimate, ide
         return None
     half = float(stats.norm.ppf(0.5 + level / 2)) * np.sqrt(
         np.maximum(estimate.variance_with(ident.coefficient_covariance), 0.0))
-    return reflex_shift(probe, sensitivity=estimate.sensitivity,
+    return reflex_shift(probe, sensitivity=estimate.sensitivity[[0, 1, -1]],
                         intervals=None if ident.given else (ident.inertia, ident.damping),
                         stiffness=estimate.stiffness, lo=estimate.stiffness - half, hi=estimate.stiffness + half,
                         informed=observable)
 
 
-def _filtered_and_coupling(trial: Trial, protocol: Protocol):
+def _filtered_and_coupling(trial: Trial, protocol: Protocol, prepared: scheduled.ScheduleInput | None = None):
     """The trial filtered for the model, the corner scan, and the coupling found (the corner
-    lowered to :data:`COUPLING_CORNER` of its resonance when the scan chose it)."""
+    lowered to :data:`COUPLING_CORNER` of its resonance when the scan chose it); for a curve
+    analysis the motion frequency is the perturbation's (:func:`scheduled.perturbation_frequency`)."""
     filtered, scan = filter_for_model(trial, protocol)
     coupling = _coupling(trial, filtered)
     if scan is not None and coupling is not None and coupling.found:
         corner = COUPLING_CORNER * coupling.resonance_hz
         if filtered.cutoff_hz is None or filtered.cutoff_hz > corner:
             filtered = filter_trial(trial, protocol, corner_hz=corner)
+    if prepared is not None:
+        filtered = dataclasses.replace(filtered, motion_hz=scheduled.perturbation_frequency(
+            filtered.angle, prepared, fs=filtered.fs))
     return filtered, scan, coupling
+
+
+def _model(trial: Trial, filtered: Filtered, protocol: Protocol, derived: DerivedSettings,
+           prepared: scheduled.ScheduleInput | None, *, seed: int, where: str):
+    """The model's terms (effects, a curve's weights), m and b, and the estimate: the signals with
+    the terms' torques taken off, the curve's resolution and torques, the identification, the
+    estimate (the curve added back) and the reflex probe."""
+    terms = terms_for(trial, filtered, protocol, where=where)
+    curve_terms = None if prepared is None else scheduled.curve_terms(filtered, prepared, protocol, terms, where=where)
+    ident = _mechanics(filtered, protocol, seed=seed, where=where, effects=terms,
+                       basis=None if curve_terms is None else curve_terms.terms)
+    model_terms = joined(terms, None if curve_terms is None else curve_terms.terms)
+    if model_terms is not None:
+        filtered = filtered_without(filtered, model_terms, ident.coefficients[2:])
+    estimate, probe = _estimate_and_probe(trial, filtered, protocol, derived, ident, model_terms)
+    if curve_terms is not None:
+        first = 2 + len(terms or ())
+        estimate = scheduled.with_curve(estimate, curve_terms, ident.coefficients[first:], first_row=first)
+    return filtered, curve_terms, ident, estimate, probe
 
 
 def _coupling(trial: Trial, filtered: Filtered) -> CouplingFit | None:
@@ -424,13 +451,12 @@ def analyze(trial: Trial | str | os.PathLike, protocol: Protocol | str | os.Path
                                  ((effects,) if isinstance(effects, str) else tuple(effects)))
     where = _where(trial)
     found = plausible(trial, protocol)
-    filtered, scan, coupling = _filtered_and_coupling(trial, protocol)
+    prepared = scheduled.schedule_input(trial, protocol, where=where)
+    trial = trial if prepared is None else prepared.trial
+    filtered, scan, coupling = _filtered_and_coupling(trial, protocol, prepared)
     derived = derive_settings(filtered, protocol, where=where)
-    terms = terms_for(trial, filtered, protocol, where=where)
-    ident = _mechanics(filtered, protocol, seed=seed, where=where, effects=terms)
-    if terms is not None:
-        filtered = filtered_without(filtered, terms, ident.coefficients[2:])
-    estimate, probe = _estimate_and_probe(trial, filtered, protocol, derived, ident, terms)
+    filtered, curve_terms, ident, estimate, probe = _model(trial, filtered, protocol, derived, prepared, seed=seed,
+                                                           where=where)
     observable = _observable(filtered, derived, trial.bridged)
     if not np.all(np.isfinite(estimate.stiffness)):
         raise TrialError(where, f"the {protocol.discretisation} observer diverged with gain "
@@ -447,8 +473,10 @@ def analyze(trial: Trial | str | os.PathLike, protocol: Protocol | str | os.Path
                             noise=_check_noise(filtered, estimate, ident), coupling=coupling,
                             corrected=corrected, angle_terms=angle)
     reflex = reflex_check(_reflex_shift(probe, estimate, ident, observable, protocol.ci_level))
-    checks = units_checks(ModelChecks(checks.checks + ((reflex,) if reflex is not None else ())),
-                          implausible_inertia(trial, protocol, ident, found))
+    curve = curve_terms and scheduled.curve_analysis(prepared, curve_terms, estimate, ident, observable=observable,
+                                                     stiffness=stiffness, level=protocol.ci_level, seed=seed)
+    more = ((reflex,) if reflex is not None else ()) + (curve.checks if curve else ())
+    checks = units_checks(ModelChecks(checks.checks + more), implausible_inertia(trial, protocol, ident, found))
     return StiffnessResult(
         trial=trial, variant=filtered.variant, estimator=protocol.estimator, stiffness=stiffness,
         stiffness_lo=lo, stiffness_hi=hi, observable=observable,
@@ -456,4 +484,4 @@ def analyze(trial: Trial | str | os.PathLike, protocol: Protocol | str | os.Path
         ci_level=protocol.ci_level, seed=seed, protocol=protocol, filtered=filtered, derived=derived,
         fit=estimate.fit, identification=ident, checks=checks, warnings=_warnings(trial, ident, observable, scan),
         corner_scan=scan, coupling=coupling, trial_level=figures,
-        reference=trial.stiffness_true if reference is None else reference)
+        reference=trial.stiffness_true if reference is None else reference, curve=curve)

@@ -25,6 +25,8 @@ from .interval import Interval
 from .mechanics.identification import Identification
 from .mechanics.posterior import Posterior
 from .protocol import Protocol
+from .scheduled.run import CurveAnalysis
+from .scheduled.curve import ScheduleCurve
 from .provenance import dependency_versions, settings_hash
 from .trial import Trial
 from .trial_level import REFERENCE_SKIP_S, TrialLevel
@@ -103,6 +105,10 @@ class StiffnessResult:
     trial_level : TrialLevel or None
         The trial's median stiffness, stiffness at its mean torque and slope against torque, each
         with its interval from the course's joint uncertainty.
+    curve : CurveAnalysis or None
+        The stiffness against the cycle's phase or a recorded schedule (``[cycles]``,
+        ``[columns.schedule]``): the course pooled by bins with its band, the resolution chosen
+        and the curve's checks; None for a plain analysis.
     """
 
     trial: Trial
@@ -127,6 +133,7 @@ class StiffnessResult:
     warnings: tuple[str, ...] = ()
     reference: np.ndarray | None = None
     trial_level: TrialLevel | None = None
+    curve: CurveAnalysis | None = None
 
     @property
     def posterior(self) -> Posterior | None:
@@ -149,6 +156,16 @@ class StiffnessResult:
         """Share of samples where the estimate is informed by motion."""
         return float(np.mean(self.observable))
 
+    @property
+    def by_phase(self) -> ScheduleCurve | None:
+        """The stiffness against the cycle's phase (``stiffness_by_phase.csv``), or None."""
+        return self.curve.curve if self.curve is not None and self.curve.against == "phase" else None
+
+    @property
+    def by_schedule(self) -> ScheduleCurve | None:
+        """The stiffness against the recorded schedule (``stiffness_by_schedule.csv``), or None."""
+        return self.curve.curve if self.curve is not None and self.curve.against == "schedule" else None
+
     def plot(self, ax=None, *, against: str = "time", reference: bool = True):
         """Draw the stiffness into a matplotlib axes (the report's figures, one at a time).
 
@@ -156,9 +173,11 @@ class StiffnessResult:
         ----------
         ax : matplotlib.axes.Axes, optional
             Where to draw; pyplot's current axes when omitted.
-        against : {"time", "angle", "torque"}
+        against : {"time", "angle", "torque", "phase", "schedule"}
             ``time``: the course with its band, uninformed stretches shaded (page 1's figure);
-            ``angle``/``torque``: medians in bins with the band, over the informed samples.
+            ``angle``/``torque``: medians in bins with the band, over the informed samples;
+            ``phase``/``schedule``: the curve of an ensemble or a schedule analysis, its band and
+            the cycles' spread (:meth:`ScheduleCurve.plot`).
         reference : bool
             With ``against="time"``, draw the reference stiffness when there is one.
 
@@ -169,6 +188,11 @@ class StiffnessResult:
         from .report.plots import plot_relation, plot_stiffness
         if against == "time":
             return plot_stiffness(self, ax=ax, reference=reference)
+        if against in ("phase", "schedule"):
+            curve = self.by_phase if against == "phase" else self.by_schedule
+            if curve is None:
+                raise ValueError(f"this analysis has no stiffness by {against} (give [cycles] or a schedule column)")
+            return curve.plot(ax=ax)
         return plot_relation(self, against, ax=ax)
 
     def report(self) -> str:
@@ -271,6 +295,7 @@ class StiffnessResult:
         median, low, high = self.informed_stiffness()
         stiffness = dict(median.to_dict(), min=low, max=high)
         trial = self.trial
+        curve = {} if self.curve is None else {f"by_{self.curve.against}": jsonable(self.curve.to_dict())}
         return {
             "trial": trial.name,
             "source": trial.source,
@@ -300,6 +325,7 @@ class StiffnessResult:
             "details": jsonable(self.details()),
             "settings": jsonable(self.protocol.to_dict()),
             "settings_sha256": self.settings_sha256,
+            **curve,
         }
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from ..protocol import ESTIMATORS, MODEL_EFFECTS
-from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
+from .options import (finish, with_curve_options, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
                       protocol_option, reports_errors, scheduler_option, seed_option)
 
 
@@ -28,6 +28,17 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 @click.option("--effect", "effects", type=click.Choice(MODEL_EFFECTS), multiple=True,
               help="Put this unmodelled effect in the model (repeat for several): its shape chosen from the data, its "
                    "amplitude identified with m and b; e.g. --effect reflex when the verdict names a stretch reflex.")
+@click.option("--period", "period_s", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
+              help="Cut the trial into cycles of this length (from --cycle-start) and report the stiffness by "
+                   "phase (stiffness_by_phase.csv); as [cycles] period_s in the protocol.")
+@click.option("--cycle-start", "start_s", type=click.FloatRange(min=0), default=None, metavar="SECONDS",
+              help="Time from the first sample at which the first --period cycle starts (default 0).")
+@click.option("--marker", default=None, metavar="COLUMN",
+              help="Start a cycle at each rising edge of this trigger column and report the stiffness by phase; "
+                   "as [cycles] marker in the protocol.")
+@click.option("--schedule", default=None, metavar="COLUMN[:UNIT]",
+              help="Report the stiffness as a function of this recorded column (an operating position, an EMG "
+                   "envelope…) in stiffness_by_schedule.csv; as [columns.schedule] in the protocol.")
 @click.option("--reference", "reference_path", type=click.Path(dir_okay=False), default=None,
               help="Calibration JSON from 'limbstiff calibrate', used as reference stiffness.")
 @click.option("--sort-by", default="", metavar="KEY[,KEY...]",
@@ -38,7 +49,8 @@ from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out
 @reports_errors
 def command(paths: tuple[str, ...], protocol_path: str | None, out: str, jobs: int | None, scheduler: str | None,
             seed: int, no_pdf: bool, inertia: float | None, damping: float | None, observer_gain: float | None,
-            estimator: str | None, effects: tuple[str, ...], reference_path: str | None, sort_by: str,
+            estimator: str | None, effects: tuple[str, ...], period_s: float | None, start_s: float | None,
+            marker: str | None, schedule: str | None, reference_path: str | None, sort_by: str,
             overwrite: bool, resume: bool) -> None:
     """Estimate the stiffness of every trial in PATHS (files, folders, globs)."""
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
@@ -49,6 +61,7 @@ def command(paths: tuple[str, ...], protocol_path: str | None, out: str, jobs: i
     protocol = load_protocol_or_default(protocol_path).override(
         inertia=inertia, damping=damping, observer_gain=observer_gain, estimator=estimator,
         effects=tuple(effects) if effects else None)
+    protocol = with_curve_options(protocol, period_s=period_s, start_s=start_s, marker=marker, schedule=schedule)
     reference = check_reference(reference_path) if reference_path else None
     keys = [k.strip() for k in sort_by.split(",") if k.strip()]
     with dask_executor(scheduler) as executor:

@@ -93,3 +93,28 @@ def load_protocol_or_default(path):
     """The protocol of ``--protocol``, or the default one."""
     from ..protocol import Protocol, load_protocol
     return load_protocol(path) if path else Protocol()
+
+
+def with_curve_options(protocol, *, period_s=None, start_s=None, marker=None, schedule=None):
+    """The protocol with ``--period``/``--cycle-start``/``--marker`` (its ``[cycles]``) and
+    ``--schedule COLUMN[:UNIT]`` (its ``[columns.schedule]``) in place of its own."""
+    import dataclasses
+
+    from ..protocol import Column, Cycles
+
+    if period_s is not None and marker is not None:
+        fail("give --period or --marker, not both (cycles of fixed length, or started by a trigger column)")
+    if start_s is not None and period_s is None and (protocol.cycles is None or protocol.cycles.period_s is None):
+        fail("--cycle-start needs --period (or [cycles] period_s in the protocol)")
+    if period_s is not None or marker is not None:
+        start = start_s if start_s is not None else (protocol.cycles.start_s if protocol.cycles else 0.0)
+        protocol = protocol.override(cycles=Cycles(period_s=period_s, start_s=start if period_s else 0.0,
+                                                   marker=marker))
+    elif start_s is not None:
+        protocol = protocol.override(cycles=dataclasses.replace(protocol.cycles, start_s=start_s))
+    if schedule is not None:
+        header, _, unit = schedule.partition(":")
+        columns = dict(protocol.columns)
+        columns["schedule"] = Column(header=header.strip(), unit=unit.strip() or None)
+        protocol = protocol.override(columns=columns)
+    return protocol

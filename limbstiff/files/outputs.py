@@ -23,6 +23,8 @@ from .atomic import atomic_write_text
 STIFFNESS_DIGITS = 5
 
 STIFFNESS_CSV = "stiffness.csv"
+#: The stiffness against the cycle's phase or the schedule (an ensemble or schedule analysis).
+CURVE_CSV = {"phase": "stiffness_by_phase.csv", "schedule": "stiffness_by_schedule.csv"}
 SUMMARY_JSON = "summary.json"
 REPORT_PDF = "report.pdf"
 
@@ -78,7 +80,8 @@ def round_significant(x: np.ndarray, *, digits: int) -> np.ndarray:
 
 
 def write_result(result, directory: str | Path, *, extra: dict | None = None) -> dict:
-    """Write ``stiffness.csv`` and ``summary.json`` of one result into ``directory``.
+    """Write ``stiffness.csv`` and ``summary.json`` of one result into ``directory``, and
+    ``stiffness_by_phase.csv`` or ``stiffness_by_schedule.csv`` for an ensemble or schedule analysis.
 
     Parameters
     ----------
@@ -100,6 +103,11 @@ def write_result(result, directory: str | Path, *, extra: dict | None = None) ->
         frame[column] = round_significant(frame[column].to_numpy(), digits=STIFFNESS_DIGITS)
     # time keeps ten digits: a microsecond an hour into a trial
     atomic_write_text(directory / STIFFNESS_CSV, frame.to_csv(index=False, float_format="%.10g"))
+    if getattr(result, "curve", None) is not None:
+        curve = result.curve.curve.to_frame()
+        for column in ("stiffness", "stiffness_lo", "stiffness_hi"):
+            curve[column] = round_significant(curve[column].to_numpy(), digits=STIFFNESS_DIGITS)
+        atomic_write_text(directory / CURVE_CSV[result.curve.against], curve.to_csv(index=False, float_format="%.10g"))
     summary = result.summary()
     if extra:
         summary.update(extra)

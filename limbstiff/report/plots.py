@@ -416,3 +416,9 @@ def plot_angle_course(ax, figure: AngleFigure, *, units: dict | None = None, wor
     if legend:
         ax.legend(loc="upper right", framealpha=0.85)
     return ax
+
+
+def plot_curve(curve, *, ax=None, **kwargs):
+    """The stiffness by phase or by schedule (:func:`limbstiff.report.curve.plot_curve`)."""
+    from .curve import plot_curve as draw
+    return draw(curve, ax=ax, **kwargs)

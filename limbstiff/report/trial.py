@@ -21,12 +21,13 @@ from pathlib import Path
 from .. import __version__
 from ..provenance import dependency_versions
 from .common import footer, lean_ticks, style, write_pdf
+from .curve import curve_page
 from .mechanics import mechanics_page
 from .pages import reference_page, relation_page, summary_page, time_page
 from .quality import quality_page
 
 #: Page builders, in order; each takes the result and returns a Figure (or None to skip).
-PAGES = (summary_page, time_page, relation_page, mechanics_page, quality_page, reference_page)
+PAGES = (summary_page, curve_page, time_page, relation_page, mechanics_page, quality_page, reference_page)
 
 
 def provenance_lines(result) -> list[str]:

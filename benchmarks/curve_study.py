@@ -1,0 +1,215 @@
+"""Stiffness by phase and by schedule on an independent generator (issue 36).
+
+    python benchmarks/curve_study.py [--quick] [--jobs 2]
+
+The trials come from ``benchmarks/ensemble_sim.py``, written by a helper who never read limbstiff's
+method: repeated-cycle ensembles (sinusoidal, gait-like and stepped stiffness over the phase;
+pseudo-random, continuous and torque perturbations; reflexes modulated by phase, drifting
+operating points, unequal cycles; 20–200 cycles) and parameter-varying trials (stiffness a
+function of a slowly swept, recorded position). Each is written as CSV (``time_s, angle_rad,
+torque_Nm, marker, schedule_rad``) and analysed as a lab would: ensembles with ``[cycles] marker =
+"marker"``, parameter-varying trials with the ``schedule_rad`` column.
+
+Per trial, over the curve's informed bins: |error| of the bin's stiffness against the true
+stiffness averaged over the bin, relative to it; whether the band holds the truth; the band's
+relative width. When the first analysis's ``reflex`` check fails, the trial is analysed again with
+``effects=("reflex",)``, the command the check names, and that second analysis is scored (both
+verdicts recorded). Pooled over the trials with at least 40 cycles (and the schedule trials): the
+median and 90th percentile of the errors, the coverage, the width. One timing: a 100-cycle ensemble
+of 1.5 s cycles analysed as an ensemble and as one 150 s trial, CPU time of each (medians of
+alternating runs are not taken: one run each; the ratio is stated with that caveat).
+
+Writes section ``curve-study`` of ``benchmarks/RESULTS.md`` and ``benchmarks/curve_study.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(HERE), str(HERE.parent)]
+from _results import machine, update_section  # noqa: E402
+import ensemble_sim  # noqa: E402
+
+#: Cycles at least for the issue's targets.
+TARGET_CYCLES = 40
+
+
+def _protocol(kind: str):
+    from limbstiff.protocol import Cycles, Protocol
+    if kind == "phase":
+        return Protocol(variant="external", cycles=Cycles(marker="marker"))
+    return Protocol(variant="external")
+
+
+def _truth_in_bins(trial, curve) -> np.ndarray:
+    """The true stiffness averaged over each bin (fine grid of 20 points per bin)."""
+    out = []
+    for a, b in zip(curve.edges[:-1], curve.edges[1:]):
+        x = np.linspace(a, b, 21)
+        if curve.against == "phase":
+            out.append(np.mean(np.interp(x % 1.0, trial.truth_grid, trial.truth_curve, period=1.0)))
+        else:
+            out.append(np.mean(np.interp(x, trial.truth_grid, trial.truth_curve)))
+    return np.array(out)
+
+
+def run_case(name: str, kwargs: dict) -> dict:
+    import limbstiff
+    trial = ensemble_sim.make(kwargs)
+    kind = "phase" if "shape" in kwargs else "schedule"
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"{name}.csv"
+        ensemble_sim.write_csv(trial, path)
+        t0 = time.process_time()
+        try:
+            result = limbstiff.analyze(path, _protocol(kind))
+            first = result.verdict
+            # as a lab would: the reflex check names the command to run, and it is run
+            named = any(c.name == "reflex" for c in result.checks.failed)
+            if named:
+                result = limbstiff.analyze(path, _protocol(kind).override(effects=("reflex",)))
+        except limbstiff.errors.LimbstiffError as exc:
+            return {"name": name, "kind": kind, "error": str(exc), **_meta(kwargs)}
+        cpu = time.process_time() - t0
+    curve = result.by_phase if kind == "phase" else result.by_schedule
+    truth = _truth_in_bins(trial, curve)
+    ok = curve.informed
+    err = np.abs(curve.stiffness[ok] - truth[ok]) / truth[ok]
+    inside = (truth[ok] >= curve.lo[ok]) & (truth[ok] <= curve.hi[ok])
+    return {"name": name, "kind": kind, **_meta(kwargs), "cpu_s": cpu, "verdict": result.verdict,
+            "first_verdict": first, "rerun_with_reflex": named,
+            "reasons": list(result.checks.reasons), "knots": int(result.curve.resolution.chosen),
+            "bins": int(ok.sum()), "median_error": float(np.median(err)), "p90_error": float(np.percentile(err, 90)),
+            "errors": err.tolist(), "inside": inside.astype(int).tolist(),
+            "coverage": float(inside.mean()), "relative_width": float(np.median((curve.hi - curve.lo)[ok] / truth[ok])),
+            "inertia": [result.inertia.median, trial.inertia], "damping": [result.damping.median, trial.damping]}
+
+
+def _meta(kwargs: dict) -> dict:
+    return {"n_cycles": kwargs.get("n_cycles"), "shape": kwargs.get("shape"), "reflex": kwargs.get("reflex"),
+            "perturbation": kwargs.get("perturbation"), "sweep": kwargs.get("sweep")}
+
+
+def timing() -> dict:
+    """CPU of a 100-cycle, 1.5 s ensemble analysed as an ensemble and as one 150 s trial."""
+    import limbstiff
+    trial = ensemble_sim.ensemble("gait", n_cycles=100, period_s=1.5, seed=4242)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "timing.csv"
+        ensemble_sim.write_csv(trial, path)
+        whole = limbstiff.read_trial(path, _protocol("whole"))
+        whole = dataclasses.replace(whole, schedule=None, schedule_unit=None)   # one plain 150 s trial
+        limbstiff.analyze(whole, _protocol("whole"))           # compile and warm up
+        out = {}
+        for label, kind in (("whole_trial_cpu_s", "whole"), ("ensemble_cpu_s", "phase")):
+            t0 = time.process_time()
+            limbstiff.analyze(whole if kind == "whole" else path, _protocol(kind))
+            out[label] = time.process_time() - t0
+    out["ratio"] = out["ensemble_cpu_s"] / out["whole_trial_cpu_s"]
+    return out
+
+
+#: The real ankle trials' own cycles: fixed-length cycles of the real ensemble's period (issue 36).
+REAL_PERIOD_S = 1.5
+
+
+def real_ankle() -> list[dict]:
+    """The shared real ankle trials (steady tasks) analysed whole and as ensembles of their own
+    1.5 s cycles: the curve's median against the whole trial's (and its interval), and how flat the
+    curve is — the share of its informed bins whose band holds the curve's own median."""
+    import limbstiff
+    from limbstiff.protocol import Cycles, load_protocol
+    protocol = load_protocol(HERE.parent / "protocols" / "reklab-ankle.toml")
+    out = []
+    for path in sorted((HERE.parent / "data" / "reklab-ankle").glob("z_*.csv")):
+        whole = limbstiff.analyze(path, protocol)
+        t0 = time.process_time()
+        ens = limbstiff.analyze(path, protocol.override(cycles=Cycles(period_s=REAL_PERIOD_S)))
+        cpu = time.process_time() - t0
+        curve = ens.by_phase
+        ok = curve.informed
+        med = float(np.median(curve.stiffness[ok]))
+        iv, _, _ = whole.informed_stiffness()
+        out.append({"trial": path.stem, "whole_median": iv.median, "whole_lo": iv.lo, "whole_hi": iv.hi,
+                    "whole_verdict": whole.verdict, "curve_median": med, "curve_min": float(curve.stiffness[ok].min()),
+                    "curve_max": float(curve.stiffness[ok].max()), "n_cycles": ens.curve.prepared["n_cycles"],
+                    "knots": int(ens.curve.resolution.chosen),
+                    "flat_share": float(np.mean((curve.lo[ok] <= med) & (med <= curve.hi[ok]))),
+                    "curve_verdict": ens.verdict, "curve_reasons": list(ens.checks.reasons), "cpu_s": cpu})
+    return out
+
+
+def pooled(rows: list[dict], kind: str) -> dict:
+    use = [r for r in rows if r["kind"] == kind and "error" not in r and (kind != "phase" or r["n_cycles"] >= TARGET_CYCLES)]
+    if not use:
+        return {}
+    err = np.concatenate([r["errors"] for r in use])
+    inside = np.concatenate([r["inside"] for r in use])
+    return {"trials": len(use), "bins": int(err.size), "median_error": float(np.median(err)),
+            "p90_error": float(np.percentile(err, 90)), "coverage": float(inside.mean()),
+            "relative_width": float(np.median([r["relative_width"] for r in use])),
+            "verdicts": {v: sum(r["verdict"] == v for r in use) for v in ("ok", "caution", "unreliable")}}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--no-timing", action="store_true")
+    args = ap.parse_args()
+    cases = ensemble_sim.cases(quick=args.quick)
+    t0 = time.time()
+    with ProcessPoolExecutor(args.jobs) as pool:
+        rows = list(pool.map(run_case, *zip(*cases)))
+    out = {"machine": machine(), "quick": args.quick, "wall_s": time.time() - t0, "rows": rows,
+           "by_phase": pooled(rows, "phase"), "by_schedule": pooled(rows, "schedule"),
+           "timing": None}
+    (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
+    if not args.no_timing:
+        out["timing"] = timing()
+        (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
+    out["real_ankle"] = real_ankle()
+    (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
+    lines = ["| trial | cycles | knots | median error | p90 | coverage | width | verdict |", "|---|---|---|---|---|---|---|---|"]
+    lines[0] = lines[0].replace("| verdict |", "| verdict (first, if rerun with --effect reflex) |")
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['name']} | {r['n_cycles']} | – | error: {r['error']} | | | | |")
+            continue
+        lines.append(f"| {r['name']} | {r['n_cycles'] or '–'} | {r['knots']} | {100 * r['median_error']:.1f} % | "
+                     f"{100 * r['p90_error']:.1f} % | {100 * r['coverage']:.0f} % | {100 * r['relative_width']:.1f} % | "
+                     f"{r['verdict']}{' (' + r['first_verdict'] + ')' if r['rerun_with_reflex'] else ''} |")
+    for kind in ("phase", "schedule"):
+        p = out[f"by_{kind}"]
+        if p:
+            lines.append(f"\nPooled by {kind} ({p['trials']} trials, {p['bins']} bins): median error "
+                         f"{100 * p['median_error']:.1f} %, 90th percentile {100 * p['p90_error']:.1f} %, coverage "
+                         f"{100 * p['coverage']:.0f} %, band width {100 * p['relative_width']:.1f} % of the stiffness; "
+                         f"verdicts {p['verdicts']}.")
+    if out["timing"]:
+        t = out["timing"]
+        lines.append(f"\nTiming (CPU, one run each): 100 cycles of 1.5 s as an ensemble {t['ensemble_cpu_s']:.1f} s, "
+                     f"as one 150 s trial {t['whole_trial_cpu_s']:.1f} s: ratio {t['ratio']:.2f}.")
+    lines += ["\nReal ankle trials (steady tasks) as ensembles of their own 1.5 s cycles:\n",
+              "| trial | whole trial: median [90 %] | verdict | cycles | knots | curve: median, range | bins whose band holds the curve's median | verdict |",
+              "|---|---|---|---|---|---|---|---|"]
+    for r in out["real_ankle"]:
+        lines.append(f"| {r['trial']} | {r['whole_median']:.1f} [{r['whole_lo']:.1f}, {r['whole_hi']:.1f}] | "
+                     f"{r['whole_verdict']} | {r['n_cycles']} | {r['knots']} | {r['curve_median']:.1f}, "
+                     f"{r['curve_min']:.1f}–{r['curve_max']:.1f} | {100 * r['flat_share']:.0f} % | {r['curve_verdict']} |")
+    update_section("curve-study", "\n".join(lines))
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

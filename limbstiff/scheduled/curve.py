@@ -1,0 +1,183 @@
+"""The stiffness against the cycle's phase or the schedule: the course pooled by bins, its band.
+
+Each bin's stiffness is the mean of the course (walk plus curve, :func:`.fit.with_curve`) over
+the informed samples whose phase (or schedule) falls in it, pooled over every cycle. Its band is
+the same mean taken over joint posterior draws of the course: the simulation smoother's draws of
+the walk (:func:`~limbstiff.estimate.course_draws.course_deviations`) plus posterior draws of m,
+b, the effects' amplitudes and the curve's weights through the course's responses to them — the
+posterior of the analysis's own band, pooled. The spread from cycle to cycle is that of each
+cycle's own mean in the bin. Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..estimate.course_draws import course_deviations
+
+#: Bins of the phase (0–1) and of the schedule (between its 1st and 99th percentiles).
+PHASE_BINS, SCHEDULE_BINS = 50, 30
+#: Joint draws of the course the bins' bands are taken from.
+CURVE_DRAWS = 200
+#: A bin needs informed samples from this many cycles (ensembles) or this many informed samples
+#: (schedules) for a stiffness.
+MIN_BIN_CYCLES, MIN_BIN_SAMPLES = 3, 50
+
+
+@dataclass(frozen=True)
+class ScheduleCurve:
+    """Stiffness against the phase or the schedule, with its band.
+
+    Parameters
+    ----------
+    against : {"phase", "schedule"}
+    unit : str
+        Of the schedule ("1" for the phase).
+    at : ndarray, shape (B,)
+        Bin centres: phase 0–1, or the schedule in its unit.
+    edges : ndarray, shape (B + 1,)
+    stiffness, lo, hi : ndarray, shape (B,), N·m/rad (N/m)
+        Mean course in each bin and its ``level`` band; NaN where the bin is not informed.
+    count : ndarray of int, shape (B,)
+        Cycles (ensembles) or informed samples (schedules) in each bin.
+    spread_lo, spread_hi : ndarray, shape (B,), N·m/rad
+        10th and 90th percentiles of the cycles' own means in the bin (ensembles; NaN otherwise).
+    level : float
+    knots : ndarray
+        The curve's knots (phase or schedule).
+    """
+
+    against: str
+    unit: str
+    at: np.ndarray
+    edges: np.ndarray
+    stiffness: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    count: np.ndarray
+    spread_lo: np.ndarray
+    spread_hi: np.ndarray
+    level: float
+    knots: np.ndarray
+
+    @property
+    def count_name(self) -> str:
+        return "n_cycles" if self.against == "phase" else "n_samples"
+
+    @property
+    def informed(self) -> np.ndarray:
+        return np.isfinite(self.stiffness)
+
+    def to_frame(self):
+        """``stiffness_by_phase.csv`` / ``stiffness_by_schedule.csv`` as a DataFrame: the bin
+        centre (``phase`` or ``schedule``), ``stiffness``, ``stiffness_lo``, ``stiffness_hi``
+        (N·m/rad) and ``n_cycles`` or ``n_samples``."""
+        import pandas as pd
+        return pd.DataFrame({self.against: self.at, "stiffness": self.stiffness, "stiffness_lo": self.lo,
+                             "stiffness_hi": self.hi, self.count_name: self.count})
+
+    to_pandas = to_frame
+
+    def to_dict(self) -> dict:
+        """JSON-ready (``by_phase`` / ``by_schedule`` of ``summary.json``)."""
+        ok = self.informed
+        med = float(np.median(self.stiffness[ok])) if ok.any() else None
+        return {"against": self.against, "unit": self.unit, "ci_level": self.level, "bins": len(self.at),
+                "informed_bins": int(ok.sum()), "knots": [float(k) for k in self.knots],
+                "median": med,
+                "min": float(np.min(self.stiffness[ok])) if ok.any() else None,
+                "max": float(np.max(self.stiffness[ok])) if ok.any() else None,
+                "cycle_spread": None if self.against != "phase" else
+                {"p10": _floats(self.spread_lo), "p90": _floats(self.spread_hi)}}
+
+    def plot(self, ax=None, **kwargs):
+        """Draw the curve, its band and the cycles' spread on ``ax`` (:func:`limbstiff.report.plots.plot_curve`)."""
+        from ..report.plots import plot_curve
+        return plot_curve(self, ax=ax, **kwargs)
+
+
+def _floats(x: np.ndarray) -> list:
+    return [None if not np.isfinite(v) else float(v) for v in x]
+
+
+def bin_edges(against: str, u: np.ndarray) -> np.ndarray:
+    """Bin edges: :data:`PHASE_BINS` over 0–1, or :data:`SCHEDULE_BINS` over the schedule's 1st–99th
+    percentiles."""
+    if against == "phase":
+        return np.linspace(0.0, 1.0, PHASE_BINS + 1)
+    lo, hi = np.percentile(u[np.isfinite(u)], [1, 99])
+    return np.linspace(lo, hi, SCHEDULE_BINS + 1)
+
+
+def _bin_means(values: np.ndarray, which: np.ndarray, bins: int) -> np.ndarray:
+    """Mean of ``values`` (..., m) per bin ``which`` (m,), shape (..., bins); NaN where empty."""
+    count = np.bincount(which, minlength=bins).astype(float)
+    sums = np.stack([np.bincount(which, weights=v, minlength=bins) for v in np.atleast_2d(values)])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = sums / count
+    return out if values.ndim > 1 else out[0]
+
+
+def curve_draws(estimate, ident, steps: np.ndarray, *, draws: int, rng: np.random.Generator) -> np.ndarray:
+    """Joint posterior draws of the course (draws, s) at the model's steps ``steps`` (s,) (indices
+    into the estimate's steps), less the course itself."""
+    dev = (course_deviations(estimate.steps, estimate.fit.noise, draws=draws, rng=rng, columns=steps)
+           if estimate.steps is not None else np.zeros((draws, len(steps))))
+    if ident is not None and ident.posterior is not None and estimate.sensitivity is not None:
+        coef = ident.coefficient_draws
+        coef = coef[rng.integers(0, len(coef), draws)]
+        samples = estimate.steps.index[steps]
+        dev = dev + (coef - ident.coefficients) @ estimate.sensitivity[:coef.shape[1], samples]
+    return dev
+
+
+def schedule_curve(estimate, ident, *, against: str, u: np.ndarray, cycle: np.ndarray | None,
+                   observable: np.ndarray, stiffness: np.ndarray, level: float, unit: str, knots: np.ndarray,
+                   rng: np.random.Generator) -> ScheduleCurve:
+    """The curve (module docstring) from the analysis's course ``stiffness`` (n,) and its estimate.
+
+    Parameters
+    ----------
+    estimate : Estimate
+        The Kalman estimate with the curve added (:func:`.fit.with_curve`): its steps give the draws.
+    ident : Identification or None
+    against : {"phase", "schedule"}
+    u : ndarray, shape (n,)
+        Phase or schedule at every sample (NaN outside).
+    cycle : ndarray of int, shape (n,), or None
+        Each sample's cycle (ensembles).
+    observable : ndarray of bool, shape (n,)
+        Informed samples.
+    stiffness : ndarray, shape (n,)
+        The course reported (``stiffness.csv``).
+    level : float
+    unit : str
+    knots : ndarray
+    rng : numpy.random.Generator
+    """
+    edges = bin_edges(against, u)
+    bins = len(edges) - 1
+    idx = estimate.steps.index
+    use = np.flatnonzero(observable[idx] & np.isfinite(u[idx]))
+    samples = idx[use]
+    which = np.clip(np.searchsorted(edges, u[samples], side="right") - 1, 0, bins - 1)
+    centre = _bin_means(stiffness[samples], which, bins)
+    dev = _bin_means(curve_draws(estimate, ident, use, draws=CURVE_DRAWS, rng=rng), which, bins)
+    lo, hi = np.quantile(centre + dev, [0.5 - level / 2, 0.5 + level / 2], axis=0)
+    spread = np.full((2, bins), np.nan)
+    if cycle is not None:
+        cyc = cycle[samples]
+        count = np.array([len(np.unique(cyc[which == b])) for b in range(bins)])
+        for b in range(bins):
+            per_cycle = [stiffness[samples[(which == b) & (cyc == c)]].mean() for c in np.unique(cyc[which == b])]
+            if len(per_cycle) >= MIN_BIN_CYCLES:
+                spread[:, b] = np.percentile(per_cycle, [10, 90])
+        enough = count >= MIN_BIN_CYCLES
+    else:
+        count = np.bincount(which, minlength=bins)
+        enough = count >= MIN_BIN_SAMPLES
+    centre, lo, hi = (np.where(enough, x, np.nan) for x in (centre, lo, hi))
+    return ScheduleCurve(against, unit, (edges[:-1] + edges[1:]) / 2, edges, centre, lo, hi, count,
+                         spread[0], spread[1], level, np.asarray(knots, dtype=float))
