@@ -50,6 +50,9 @@ class JobOptions:
         Write ``report.pdf`` per trial.
     reference : SpringCalibration or None
         Reference stiffness curve from ``limbstiff calibrate``.
+    ensemble : tuple of Path
+        The one-cycle files of the one trial an ensemble run analyses (:func:`analyze_ensemble`),
+        in their order; empty for a batch of trial files.
     """
 
     protocol: Protocol
@@ -60,6 +63,7 @@ class JobOptions:
     resume: bool = False
     pdf: bool = False
     reference: SpringCalibration | None = None
+    ensemble: tuple[Path, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -145,9 +149,7 @@ def refuse_other_outputs(jobs: Sequence[BatchJob[JobOptions]], out: Path, *, mar
         return
     stale: dict[str, list[str]] = {}
     for job in jobs:
-        state = outputs_state(job.out, source=job.source, run_sha256=job.options.run_sha256, files=files,
-                              marker=marker)
-        stale.setdefault(state, []).append(job.name)
+        stale.setdefault(_outputs_state(job, files=files, marker=marker), []).append(job.name)
     what = "use --overwrite or another --out"
     if "settings" in stale:
         raise OutputExists(f"outputs in {out} were made with other settings: {what}")
@@ -163,17 +165,53 @@ def _names(names: Sequence[str], shown: int = 3) -> str:
     return ", ".join(names[:shown]) + (f" and {len(names) - shown} more" if len(names) > shown else "")
 
 
+def _outputs_state(job: BatchJob[JobOptions], *, files: Sequence[str], marker: str) -> str:
+    """What the job's outputs are to this run (:func:`~limbstiff.batch.table.outputs_state`);
+    an ensemble's input is its files, by :func:`source_sha256`."""
+    if not getattr(job.options, "ensemble", ()):
+        return outputs_state(job.out, source=job.source, run_sha256=job.options.run_sha256, files=files, marker=marker)
+    try:
+        summary = json.loads((job.out / marker).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return "absent"
+    if not isinstance(summary, dict):
+        return "absent"
+    if summary.get("run_sha256") != job.options.run_sha256:
+        return "settings"
+    try:
+        if summary.get("source_sha256") != source_sha256(job):
+            return "input"
+    except OSError:
+        return "input"
+    return "current" if all((job.out / f).is_file() for f in files) else "files"
+
+
+def source_sha256(job: BatchJob) -> str:
+    """SHA-256 of the job's input: its file's, or an ensemble's over its files' (in order)."""
+    from ..files.atomic import sha256_file
+    from ..files.ensemble import ensemble_sha256
+
+    files = getattr(job.options, "ensemble", ())
+    if files:
+        return ensemble_sha256(sha256_file(job.at(f)) for f in files)
+    return sha256_file(job.at(job.source))
+
+
 def read_job_trial(job: BatchJob, protocol: Protocol):
-    """The job's trial, opened from the client's folder on an executor, its source as given."""
-    from ..files import read_trial
-    trial = read_trial(job.at(job.source), protocol, name=job.name)
+    """The job's trial (an ensemble's files read as one), opened from the client's folder on an
+    executor, its source as given."""
+    from ..files import read_ensemble, read_trial
+    files = getattr(job.options, "ensemble", ())
+    if files:
+        trial = read_ensemble([job.at(f) for f in files], protocol, name=job.name)
+    else:
+        trial = read_trial(job.at(job.source), protocol, name=job.name)
     return trial if job.cwd is None else dataclasses.replace(trial, source=str(job.source))
 
 
 def _analyse_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     """Read, analyse and write one trial (runs in a worker process)."""
     from ..analysis import analyze
-    from ..files.atomic import sha256_file
     from ..files.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON, write_result
 
     opts, out = job.options, job.at(job.out)
@@ -181,8 +219,7 @@ def _analyse_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     if opts.resume or not opts.overwrite:
         # current outputs are kept unless --overwrite alone asks to redo them: a re-run of the same
         # command is a no-op, and --resume --overwrite redoes only what changed
-        done = up_to_date(out, source_sha256=sha256_file(job.at(job.source)), run_sha256=opts.run_sha256,
-                          files=files)
+        done = up_to_date(out, source_sha256=source_sha256(job), run_sha256=opts.run_sha256, files=files)
         if done is not None:
             return done
     _clear_or_refuse(job, SUMMARY_JSON)
@@ -228,6 +265,15 @@ def _run(paths, work, options: JobOptions, *, out, jobs, executor, progress, mar
     out = writable_folder(out)
     names, notes = output_names(files)
     jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
+    return _run_jobs(jobs_list, work, out=out, jobs=jobs, executor=executor, progress=progress, marker=marker,
+                     writes=writes, missing=missing, notes=notes)
+
+
+def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, executor, progress, marker: str,
+              writes: Sequence[str], missing: Sequence[tuple[str, str]] = (), notes: Sequence[str] = ()
+              ) -> BatchReport:
+    """:func:`_run` from its jobs on: the refusal, the runs and ``summary.csv`` (kept current)."""
+    names = [job.name for job in jobs_list]
     refuse_other_outputs(jobs_list, out, marker=marker, files=writes)
     if executor is not None:
         from .cluster import check_shared_folder
@@ -366,6 +412,47 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     if pdf:
         report = _overview(report, protocol, sort_by)
     return report
+
+
+def analyze_ensemble(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",
+                     seed: int = 0, pdf: bool = True, overwrite: bool = False, resume: bool = False, reference=None,
+                     name: str | None = None, executor: Executor | None = None,
+                     progress: Callable[[TrialOutcome, int, int], None] | None = None) -> BatchReport:
+    """Analyse every trial file named by ``paths`` as one cycle of ONE ensemble
+    (``limbstiff analyze --ensemble``): the files read together
+    (:func:`~limbstiff.files.ensemble.read_ensemble`), the stiffness by phase of their cycles.
+
+    Writes ``OUT/<name>/`` (``stiffness.csv``, ``summary.json``, ``stiffness_by_phase.csv``,
+    ``report.pdf`` when ``pdf``) and ``OUT/summary.csv`` as :func:`analyze_files` does for one
+    trial, with the same rules for outputs that exist; ``name`` is the files' folder's name
+    unless given. The protocol's ``[cycles]``, if any, is replaced: each file is one cycle.
+
+    Raises
+    ------
+    discovery.NothingToDo
+        When a path matches nothing or no trial file is found.
+    TrialError
+        Fewer than :data:`~limbstiff.files.ensemble.MIN_FILES` (the ensemble's least number of cycles) files.
+    """
+    from ..files.ensemble import ENSEMBLE_MARKER, ensemble_folder, ensemble_order
+    from ..files.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON
+    from ..protocol import Cycles
+
+    protocol = protocol or Protocol()
+    warnings = ("the protocol's [cycles] is not used: with --ensemble each file is one cycle",) \
+        if protocol.cycles is not None else ()
+    files = ensemble_order(discover(paths))
+    folder = ensemble_folder(files)
+    protocol = dataclasses.replace(protocol, cycles=Cycles(marker=ENSEMBLE_MARKER))
+    options = JobOptions(protocol, seed, run_sha256=run_fingerprint(protocol, seed=seed, reference=reference),
+                         overwrite=overwrite, resume=resume, pdf=pdf, reference=reference, ensemble=tuple(files))
+    out = writable_folder(out)
+    name = name or folder.name
+    job = BatchJob(source=folder, name=name, out=out / name, options=options)
+    report = _run_jobs([job], _analyse_and_write, out=out, jobs=1, executor=executor, progress=progress,
+                       marker=SUMMARY_JSON, writes=(STIFFNESS_CSV, SUMMARY_JSON) + ((REPORT_PDF,) if pdf else ()))
+    report = dataclasses.replace(report, warnings=warnings + report.warnings)
+    return _overview(report, protocol, ()) if pdf else report
 
 
 def _overview(report: BatchReport, protocol: Protocol, sort_by: Sequence[str]) -> BatchReport:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from ..protocol import ESTIMATORS, MODEL_EFFECTS
-from .options import (finish, with_curve_options, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
+from .options import (fail, finish, with_curve_options, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
                       protocol_option, reports_errors, scheduler_option, seed_option)
 
 
@@ -36,6 +36,9 @@ from .options import (finish, with_curve_options, jobs_option, load_protocol_or_
 @click.option("--marker", default=None, metavar="COLUMN",
               help="Start a cycle at each rising edge of this trigger column and report the stiffness by phase; "
                    "as [cycles] marker in the protocol.")
+@click.option("--ensemble", is_flag=True,
+              help="Take every trial file in PATHS as one cycle of ONE ensemble (files in natural order of their "
+                   "names) and report its stiffness by phase in OUT/<folder name>/; not with --period or --marker.")
 @click.option("--schedule", default=None, metavar="COLUMN[:UNIT]",
               help="Report the stiffness as a function of this recorded column (an operating position, an EMG "
                    "envelope…) in stiffness_by_schedule.csv; as [columns.schedule] in the protocol.")
@@ -50,11 +53,13 @@ from .options import (finish, with_curve_options, jobs_option, load_protocol_or_
 def command(paths: tuple[str, ...], protocol_path: str | None, out: str, jobs: int | None, scheduler: str | None,
             seed: int, no_pdf: bool, inertia: float | None, damping: float | None, observer_gain: float | None,
             estimator: str | None, effects: tuple[str, ...], period_s: float | None, start_s: float | None,
-            marker: str | None, schedule: str | None, reference_path: str | None, sort_by: str,
+            marker: str | None, ensemble: bool, schedule: str | None, reference_path: str | None, sort_by: str,
             overwrite: bool, resume: bool) -> None:
     """Estimate the stiffness of every trial in PATHS (files, folders, globs)."""
+    if ensemble and (period_s is not None or marker is not None or start_s is not None):
+        fail("--ensemble takes each file as one cycle: give it without --period, --cycle-start or --marker")
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
-    from ..batch.jobs import analyze_files, check_reference
+    from ..batch.jobs import analyze_ensemble, analyze_files, check_reference
     from ..batch.cluster import dask_executor
     from .progress import Progress
 
@@ -65,6 +70,9 @@ def command(paths: tuple[str, ...], protocol_path: str | None, out: str, jobs: i
     reference = check_reference(reference_path) if reference_path else None
     keys = [k.strip() for k in sort_by.split(",") if k.strip()]
     with dask_executor(scheduler) as executor:
+        if ensemble:
+            finish(analyze_ensemble(paths, protocol=protocol, out=out, seed=seed, pdf=not no_pdf, overwrite=overwrite,
+                                    resume=resume, reference=reference, executor=executor, progress=Progress()))
         finish(analyze_files(paths, protocol=protocol, out=out, jobs=jobs, seed=seed, pdf=not no_pdf,
                              overwrite=overwrite, resume=resume, reference=reference, sort_by=keys,
                              executor=executor, progress=Progress()))

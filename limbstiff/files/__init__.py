@@ -7,6 +7,7 @@ and the atomic-write helpers every output goes through.
 | module | job |
 |---|---|
 | ``read.py`` | :func:`read_trial`: the reader chosen by extension |
+| ``ensemble.py`` | :func:`read_ensemble`: one-cycle files read as one ensemble |
 | ``text.py`` | CSV, TSV, semicolon-separated text (decimal comma, unit row) |
 | ``mat.py`` | MATLAB ``.mat`` files (v4–v7) |
 | ``excel.py`` | Excel ``.xlsx`` workbooks (one worksheet, read like text) |
@@ -21,7 +22,8 @@ from __future__ import annotations
 from .atomic import atomic_output, atomic_write_bytes, atomic_write_text, sha256_file
 from .trial_csv import write_trial
 from .read import EXTENSIONS, read_trial
+from .ensemble import read_ensemble
 from ..units import UNITS
 
-__all__ = ["read_trial", "write_trial", "EXTENSIONS", "UNITS", "atomic_write_text", "atomic_write_bytes",
-           "atomic_output", "sha256_file"]
+__all__ = ["read_trial", "read_ensemble", "write_trial", "EXTENSIONS", "UNITS", "atomic_write_text",
+           "atomic_write_bytes", "atomic_output", "sha256_file"]
