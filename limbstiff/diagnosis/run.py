@@ -92,6 +92,9 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping, effects=())
     trials = list(trials)
     results = list(results) if results is not None else [analyze(t, protocol, seed=seed) for t in trials]
+    # an ensemble's analysis runs on its whole cycles less their ensemble mean, the curve's torque
+    # taken off: the gap diagnosed is the one its model leaves (result.trial is that trial)
+    originals, trials = trials, [r.trial if r.curve is not None else t for t, r in zip(trials, results)]
     channels = [channels_from(t, r) for t, r in zip(trials, results)]
     effects, library_notes = candidate_library(channels, effects)
     try:
@@ -99,7 +102,8 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     except ValueError as exc:
         raise TrialError(str(exc).split(":")[0], str(exc).split(":", 1)[1].strip()) from None
     rng = np.random.default_rng(seed)
-    run = _Run(trials, results, channels, protocol, seed, problem, selection.select(problem, effects, rng=rng))
+    run = _Run(trials, results, channels, protocol, seed, problem, selection.select(problem, effects, rng=rng),
+               originals)
     candidates = sorted((_candidate(run, name, scored, effects[name], rng) for name, scored in run.sel.first.items()),
                         key=lambda c: -c.shrink_heldout)
     candidates += _untried(run, {c.effect for c in candidates})
@@ -127,7 +131,9 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
 @dataclass(frozen=True)
 class _Run:
     """What the steps of :func:`diagnose` share: the trials, their analyses and channels, the
-    protocol and seed of the re-analyses, the held-out problem and the selection made on it."""
+    protocol and seed of the re-analyses, the held-out problem and the selection made on it.
+    ``trials`` are those the analyses ran on (an ensemble's whole cycles less their mean);
+    ``originals`` those given, which a re-analysis starts from."""
 
     trials: list
     results: list
@@ -136,6 +142,7 @@ class _Run:
     seed: int
     problem: crossval.Problem
     sel: selection.Selection
+    originals: list
 
     @property
     def den(self) -> float:
@@ -187,7 +194,7 @@ def _stiffness_with_effects(run: _Run) -> tuple[TrialStiffness, ...]:
     note = (f"{' and '.join(left)} cannot be put in the analysis's model (a corrected channel or an offset of m "
             "or b): its corrected median, without an interval, is after.stiffness_bias") if left else None
     out = []
-    for trial, result in zip(run.trials, run.results):
+    for trial, result in zip(run.originals, run.results):
         reported = result.informed_stiffness()[0]
         row = TrialStiffness(trial=trial.name, reported=reported, verdict=result.verdict, effects=in_model,
                              with_effects=None, verdict_with_effects=None,
