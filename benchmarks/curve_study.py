@@ -30,6 +30,7 @@ import json
 import sys
 import tempfile
 import time
+from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -161,27 +162,11 @@ def pooled(rows: list[dict], kind: str) -> dict:
             "verdicts": {v: sum(r["verdict"] == v for r in use) for v in ("ok", "caution", "unreliable")}}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--no-timing", action="store_true")
-    args = ap.parse_args()
-    cases = ensemble_sim.cases(quick=args.quick)
-    t0 = time.time()
-    with ProcessPoolExecutor(args.jobs) as pool:
-        rows = list(pool.map(run_case, *zip(*cases)))
-    out = {"machine": machine(), "quick": args.quick, "wall_s": time.time() - t0, "rows": rows,
-           "by_phase": pooled(rows, "phase"), "by_schedule": pooled(rows, "schedule"),
-           "timing": None}
-    (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
-    if not args.no_timing:
-        out["timing"] = timing()
-        (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
-    out["real_ankle"] = real_ankle()
-    (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
-    lines = ["| trial | cycles | knots | median error | p90 | coverage | width | verdict |", "|---|---|---|---|---|---|---|---|"]
-    lines[0] = lines[0].replace("| verdict |", "| verdict (first, if rerun with --effect reflex) |")
+def section(out: dict) -> str:
+    """The ``curve-study`` section of RESULTS.md from a run's results (``curve_study.json``)."""
+    rows = out["rows"]
+    lines = ["| trial | cycles | knots | median error | p90 | coverage | width | verdict (first, if rerun with --effect reflex) |",
+             "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if "error" in r:
             lines.append(f"| {r['name']} | {r['n_cycles']} | – | error: {r['error']} | | | | |")
@@ -196,19 +181,57 @@ def main() -> None:
                          f"{100 * p['median_error']:.1f} %, 90th percentile {100 * p['p90_error']:.1f} %, coverage "
                          f"{100 * p['coverage']:.0f} %, band width {100 * p['relative_width']:.1f} % of the stiffness; "
                          f"verdicts {p['verdicts']}.")
-    if out["timing"]:
+    done = [r for r in rows if "error" not in r]
+    wrong = [r for r in done if r["median_error"] > 0.05]
+    ok = [r for r in done if r["verdict"] == "ok"]
+    lines.append(f"\nTrials whose curve is more than 5 % off (median over its bins): {len(wrong)} of {len(done)}, "
+                 f"verdicts {dict(Counter(r['verdict'] for r in wrong))}. The {len(ok)} trials said `ok`: median error "
+                 f"{100 * np.median([r['median_error'] for r in ok]):.1f} % (at most "
+                 f"{100 * max(r['median_error'] for r in ok):.1f} %), coverage "
+                 f"{100 * np.mean(np.concatenate([r['inside'] for r in ok])):.0f} %. Band half-width ÷ median error, "
+                 f"median over the trials: {np.median([r['relative_width'] / 2 / max(r['median_error'], 1e-9) for r in done]):.2f}.")
+    if out.get("timing"):
         t = out["timing"]
         lines.append(f"\nTiming (CPU, one run each): 100 cycles of 1.5 s as an ensemble {t['ensemble_cpu_s']:.1f} s, "
                      f"as one 150 s trial {t['whole_trial_cpu_s']:.1f} s: ratio {t['ratio']:.2f}.")
-    lines += ["\nReal ankle trials (steady tasks) as ensembles of their own 1.5 s cycles:\n",
-              "| trial | whole trial: median [90 %] | verdict | cycles | knots | curve: median, range | bins whose band holds the curve's median | verdict |",
-              "|---|---|---|---|---|---|---|---|"]
-    for r in out["real_ankle"]:
-        lines.append(f"| {r['trial']} | {r['whole_median']:.1f} [{r['whole_lo']:.1f}, {r['whole_hi']:.1f}] | "
-                     f"{r['whole_verdict']} | {r['n_cycles']} | {r['knots']} | {r['curve_median']:.1f}, "
-                     f"{r['curve_min']:.1f}–{r['curve_max']:.1f} | {100 * r['flat_share']:.0f} % | {r['curve_verdict']} |")
-    update_section("curve-study", "\n".join(lines))
-    print("\n".join(lines))
+    if out.get("real_ankle"):
+        lines += ["\nReal ankle trials (steady tasks) as ensembles of their own 1.5 s cycles:\n",
+                  "| trial | whole trial: median [90 %] | verdict | cycles | knots | curve: median, range | bins whose band "
+                  "holds the curve's median | verdict |", "|---|---|---|---|---|---|---|---|"]
+        for r in out["real_ankle"]:
+            lines.append(f"| {r['trial']} | {r['whole_median']:.1f} [{r['whole_lo']:.1f}, {r['whole_hi']:.1f}] | "
+                         f"{r['whole_verdict']} | {r['n_cycles']} | {r['knots']} | {r['curve_median']:.1f}, "
+                         f"{r['curve_min']:.1f}–{r['curve_max']:.1f} | {100 * r['flat_share']:.0f} % | {r['curve_verdict']} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--no-timing", action="store_true")
+    ap.add_argument("--from-json", action="store_true", help="rewrite the section from curve_study.json only")
+    args = ap.parse_args()
+    if args.from_json:
+        text = section(json.loads((HERE / "curve_study.json").read_text()))
+        update_section("curve-study", text)
+        print(text)
+        return
+    cases = ensemble_sim.cases(quick=args.quick)
+    t0 = time.time()
+    with ProcessPoolExecutor(args.jobs) as pool:
+        rows = list(pool.map(run_case, *zip(*cases)))
+    out = {"machine": machine(), "quick": args.quick, "wall_s": time.time() - t0, "rows": rows,
+           "by_phase": pooled(rows, "phase"), "by_schedule": pooled(rows, "schedule"), "timing": None}
+    (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
+    if not args.no_timing:
+        out["timing"] = timing()
+        (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
+    out["real_ankle"] = real_ankle()
+    (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
+    text = section(out)
+    update_section("curve-study", text)
+    print(text)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,8 @@ Pure numpy: no I/O.
 
 from __future__ import annotations
 
+import warnings
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -147,11 +149,15 @@ def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.n
     n, length = len(angle), b - a
     near = np.r_[max(0, a - length):a, b:min(n, b + length)]
     y, sigma = angle[near], smoothed[near, 1]
-    degree = min(2, len(near) - 1)
+    degree = min(2, len(np.unique(y)) - 1)          # an encoder's angle repeats its values
     if degree < 0 or np.ptp(y) == 0:
         coef = np.array([float(np.mean(sigma)) if len(near) else 0.0])
     else:
-        coef = np.polyfit(y, sigma, degree)
+        with warnings.catch_warnings():
+            # a near-degenerate spread of angles: the fit is still the least-squares one, and the
+            # user's terminal is not the place for numpy's RankWarning
+            warnings.simplefilter("ignore", np.exceptions.RankWarning)
+            coef = np.polyfit(y, sigma, degree)
     elastic = _clipped_antiderivative(coef, *((y.min(), y.max()) if len(near) else (0.0, 0.0)))
     gap = angle[a:b]
     forward = smoothed[a - 1, 0] + elastic(gap) - elastic(angle[a - 1]) if a > 0 else None

@@ -55,9 +55,11 @@ def curve_page(result):
     prepared, res = analysis.prepared, analysis.resolution
     where = (f"{prepared.get('n_cycles')} cycles ({prepared['how']})" if curve.against == "phase"
              else prepared["how"])
-    ax.set_title(textwrap.fill(f"Pooled over {where}; the curve's resolution: {res.chosen} knots (grey lines), "
-                               "chosen by predicting left-out "
-                               f"{'cycles' if curve.against == 'phase' else 'stretches'}", 100),
+    units = "cycles" if curve.against == "phase" else "stretches"
+    resolution = (f"{res.chosen} knots (grey lines)" if res.chosen else
+                  f"none finer than the walk (no curve predicted left-out {units} better)")
+    ax.set_title(textwrap.fill(f"Pooled over {where}; the curve's resolution: {resolution}, chosen by predicting "
+                               f"left-out {units}", 100),
                  fontsize=FONT["small"], loc="left")
     rows = [("tried (knots: held-out log density)",
              ", ".join(f"{s.knots}: {s.score:.0f}" for s in res.scores))]
