@@ -66,6 +66,9 @@ def curve_page(result):
     if curve.against == "phase":
         rows.append(("ensemble mean taken off", f"{100 * prepared['ensemble_mean_share_of_angle_variance']:.0f} % of "
                      "the angle's variance (the movement every cycle repeats)"))
+    rows.append((f"{100 * curve.level:.0f} % band", "the estimate's own uncertainty (the walk, m, b, the curve's "
+                 "weights); not yet calibrated: on an independent simulator it was too narrow, the curves "
+                 "said ok within a few percent (docs/benchmarks.md)"))
     rows += [(c.name, ("ok: " if c.passed else "FAILED: ") + c.message) for c in analysis.checks]
     text_panel(fig.add_subplot(gs[1]), rows, title="How the curve was made, and its checks", wrap=70)
     return fig
