@@ -117,6 +117,12 @@ def test_ensemble_through_the_cli(tmp_path):
     assert block["n_cycles"] == 13                      # 14 pulses, the last cycle has no end
     assert block["resolution"]["chosen_knots"] > 0            # a curve, not the walk alone
     assert {c["name"] for c in summary["checks"]} >= {"curve_heldout", "curve_outlier_units", "curve_coverage"}
+    assert "stiffness_by_phase.csv" in summary["files"]
+    # the same file analysed without cycles into the same folder: no curve of the earlier run is left
+    again = CliRunner().invoke(main, ["analyze", str(tmp_path / "ens.csv"), "--no-pdf", "--overwrite", "--inertia",
+                                      "0.015", "--damping", "0.8", "--out", str(out)])
+    assert again.exit_code == 0, again.output
+    assert not (out / "ens" / "stiffness_by_phase.csv").exists()
 
 
 def test_period_and_marker_together_is_a_usage_error(tmp_path):
@@ -162,3 +168,17 @@ def test_stiffness_by_schedule_of_a_swept_operating_point():
     # room for the smoothing of a curve from 30 s of data (the benchmark asks 5 % of 100 s trials)
     assert ok.mean() > 0.9 and np.median(err) < 0.10
     assert result.summary()["by_schedule"]["unit"] == "rad"
+
+
+def test_cycles_too_short_and_a_constant_schedule_are_one_line_errors(tmp_path):
+    truth = _ensemble_csv(tmp_path / "ens.csv", n_cycles=6)
+    assert truth is not None
+    short = CliRunner().invoke(main, ["analyze", str(tmp_path / "ens.csv"), "--period", "0.02", "--no-pdf",
+                                      "--out", str(tmp_path / "o1")])
+    assert short.exit_code == 1 and "needs at least 40" in short.output and "Traceback" not in short.output
+    frame = pd.read_csv(tmp_path / "ens.csv")
+    frame["level"] = 0.25
+    frame.to_csv(tmp_path / "flat.csv", index=False)
+    flat = CliRunner().invoke(main, ["analyze", str(tmp_path / "flat.csv"), "--schedule", "level:rad", "--no-pdf",
+                                     "--out", str(tmp_path / "o2")])
+    assert flat.exit_code == 1 and "does not vary" in flat.output and "Traceback" not in flat.output

@@ -212,7 +212,7 @@ def read_job_trial(job: BatchJob, protocol: Protocol):
 def _analyse_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     """Read, analyse and write one trial (runs in a worker process)."""
     from ..analysis import analyze
-    from ..files.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON, write_result
+    from ..files.outputs import CURVE_CSV, REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON, write_result
 
     opts, out = job.options, job.at(job.out)
     files = [STIFFNESS_CSV, SUMMARY_JSON] + ([REPORT_PDF] if opts.pdf else [])
@@ -225,6 +225,9 @@ def _analyse_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     _clear_or_refuse(job, SUMMARY_JSON)
     if not opts.pdf and (out / REPORT_PDF).exists():
         (out / REPORT_PDF).unlink()              # a report of an earlier run would not match
+    for name in CURVE_CSV.values():              # nor a curve of an earlier run with other cycles
+        if (out / name).exists():
+            (out / name).unlink()
     trial = read_job_trial(job, opts.protocol)
     reference = None
     if opts.reference is not None:
@@ -237,6 +240,7 @@ def _analyse_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     if opts.pdf:
         from ..report import write_report
         write_report(result, out / REPORT_PDF)
+    files = files + ([CURVE_CSV[result.curve.against]] if result.curve is not None else [])
     return TrialRow.from_summary(write_result(result, out, extra={"output": str(job.out), "files": files,
                                                                   "run_sha256": opts.run_sha256}))
 

@@ -188,7 +188,8 @@ def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: I
         return None
     if summary.get("source_sha256") != source_sha256 or summary.get("run_sha256") != run_sha256:
         return None
-    if not all((directory / f).is_file() for f in files):
+    written = summary.get("files") if isinstance(summary.get("files"), list) else []
+    if not all((directory / f).is_file() for f in [*files, *written]):      # a curve's file too
         return None
     return TrialRow.from_summary(summary, resumed=True)
 

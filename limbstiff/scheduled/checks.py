@@ -53,17 +53,21 @@ def disagreeing(err: np.ndarray) -> np.ndarray:
     return np.flatnonzero(ok & (z > DISAGREE_Z) & (err > DISAGREE_ERROR_RATIO * med))
 
 
+def _one(noun: str) -> str:
+    return {"cycles": "cycle", "stretches": "stretch"}.get(noun, noun)
+
+
 def disagree_check(err: np.ndarray, *, noun: str, first_s: np.ndarray | None = None) -> Check:
     """``curve_outlier_units``: cycles (or stretches) whose torque the final model predicts far
     worse than the others' (:func:`unit_errors`), named by number and start."""
     bad = disagreeing(err)
     n = int(np.isfinite(err).sum())
     if not len(bad):
-        return Check("curve_outlier_units", 0.0, 0.0, True, f"no {noun[:-1]} stands out from the other {n}")
+        return Check("curve_outlier_units", 0.0, 0.0, True, f"no {_one(noun)} stands out from the other {n}")
     names = ", ".join(f"{k + 1}" + ("" if first_s is None else f" (at {first_s[k]:.1f} s)") for k in bad[:8])
     more = "" if len(bad) <= 8 else f" and {len(bad) - 8} more"
     return Check("curve_outlier_units", float(len(bad)), 0.0, False,
-                 f"{len(bad)} of {n} {noun} are predicted far worse than the others ({noun[:-1]} {names}{more}): "
+                 f"{len(bad)} of {n} {noun} are predicted far worse than the others ({_one(noun)} {names}{more}): "
                  "an artefact, a different movement or a reflex in those; the curve pools them — look at them, "
                  "or leave them out")
 
@@ -82,7 +86,7 @@ def motion_check(curve: ScheduleCurve) -> Check:
             runs.append((curve.edges[start], curve.edges[j]))
             start = None
     where = ", ".join(f"{a:.3g}–{b:.3g}" for a, b in runs[:6])
-    unit = "" if curve.against == "phase" else f" {curve.unit}"
+    unit = "" if curve.against == "phase" or curve.unit == "1" else f" {curve.unit}"
     return Check("curve_coverage", share, 0.0, False,
                  f"no stiffness at {curve.against} {where}{unit}: too little motion there in too few "
                  f"{'cycles' if curve.against == 'phase' else 'samples'} (perturb there, or record more)")

@@ -22,7 +22,7 @@ PHASE_BINS, SCHEDULE_BINS = 50, 30
 #: Joint draws of the course the bins' bands are taken from.
 CURVE_DRAWS = 200
 #: A bin needs informed samples from this many cycles (ensembles) or this many informed samples
-#: (schedules) for a stiffness.
+#: (schedules: the model's steps in the bin times the samples per step) for a stiffness.
 MIN_BIN_CYCLES, MIN_BIN_SAMPLES = 3, 50
 
 
@@ -176,7 +176,9 @@ def schedule_curve(estimate, ident, *, against: str, u: np.ndarray, cycle: np.nd
                 spread[:, b] = np.percentile(per_cycle, [10, 90])
         enough = count >= MIN_BIN_CYCLES
     else:
-        count = np.bincount(which, minlength=bins)
+        # each model step stands for the samples between it and the next
+        count = np.bincount(which, minlength=bins) * int(np.median(np.diff(idx))) if len(idx) > 1 else \
+            np.bincount(which, minlength=bins)
         enough = count >= MIN_BIN_SAMPLES
     centre, lo, hi = (np.where(enough, x, np.nan) for x in (centre, lo, hi))
     return ScheduleCurve(against, unit, (edges[:-1] + edges[1:]) / 2, edges, centre, lo, hi, count,

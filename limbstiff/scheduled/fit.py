@@ -22,9 +22,9 @@ from ..mechanics.effect_terms import EffectTerms
 from .basis import PHASE_KNOTS, SCHEDULE_KNOTS, StiffnessBasis, phase_basis, schedule_basis
 from .resolution import Resolution, choose_resolution
 
-#: A resolution needs at least this many Kalman steps per knot, and (ensembles) this many
-#: cycles per knot's span of phase: finer knots hold too little data to be judged.
-MIN_STEPS_PER_KNOT, MIN_CYCLES_FOR_KNOTS = 50, 3
+#: A resolution needs at least this many Kalman steps per knot: finer knots hold too little data
+#: to be judged.
+MIN_STEPS_PER_KNOT = 50
 
 
 @dataclass(frozen=True)
@@ -49,7 +49,7 @@ class ScheduleTerms:
     terms: EffectTerms | None
 
 
-def candidates(against: str, u: np.ndarray, *, n_steps: int, n_units: int, unit: str) -> dict[int, StiffnessBasis]:
+def candidates(against: str, u: np.ndarray, *, n_steps: int, unit: str) -> dict[int, StiffnessBasis]:
     """The resolutions worth trying (:data:`~.basis.PHASE_KNOTS` or :data:`~.basis.SCHEDULE_KNOTS`),
     with at least :data:`MIN_STEPS_PER_KNOT` steps per knot."""
     knots = PHASE_KNOTS if against == "phase" else SCHEDULE_KNOTS
@@ -82,7 +82,7 @@ def schedule_terms(filtered: Filtered, against: str, u: np.ndarray, unit_of_samp
     from ..statespace.steps import kalman_decimation
 
     n_steps = len(filtered.angle) // kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
-    bases = candidates(against, u, n_steps=n_steps, n_units=int(unit_of_sample.max()) + 1, unit=unit)
+    bases = candidates(against, u, n_steps=n_steps, unit=unit)
 
     def columns(basis):
         return curve_columns(basis, u, filtered, effects)

@@ -23,6 +23,9 @@ from ..trial import Trial
 #: Held-out units of a schedule analysis: stretches of this many seconds (or 40 per record at
 #: most), left out in interleaved folds so that every fold spans the schedule's range.
 SCHEDULE_UNIT_S, MAX_SCHEDULE_UNITS = 2.0, 40
+#: The fewest samples a cycle may have: the ensemble mean takes at least four per phase bin and ten
+#: bins (:func:`limbstiff.cycles.mean_bins`).
+MIN_CYCLE_SAMPLES = 40
 
 
 @dataclass(frozen=True)
@@ -90,6 +93,10 @@ def schedule_input(trial: Trial, protocol, *, where: str) -> ScheduleInput | Non
     if "schedule" in protocol.columns or trial.schedule is not None:
         if trial.schedule is None:
             raise TrialError(where, "the protocol names a schedule column but the trial has none")
+        lo, hi = np.percentile(trial.schedule, [1, 99])
+        if not hi > lo:
+            raise TrialError(where, "the schedule column does not vary (its 1st and 99th percentiles are equal): "
+                                    "there is no operating point to relate the stiffness to")
         return _scheduled(trial)
     return None
 
@@ -102,6 +109,9 @@ def _split(trial: Trial, spec, *, where: str) -> cycles.CycleSplit:
     else:
         split = cycles.by_period(trial.n_samples, sample_period=trial.sample_period, period_s=spec.period_s,
                                  start_s=spec.start_s)
+    if split.n_cycles >= 1 and split.lengths().min() < MIN_CYCLE_SAMPLES:
+        raise TrialError(where, f"the shortest cycle ({split.how}) has {int(split.lengths().min())} samples; a cycle "
+                                f"needs at least {MIN_CYCLE_SAMPLES} to be told apart in phase (check [cycles])")
     if split.n_cycles < cycles.MIN_CYCLES:
         raise TrialError(where, f"{max(split.n_cycles, 0)} whole cycles ({split.how}); an ensemble needs at least "
                                 f"{cycles.MIN_CYCLES} (check [cycles] in the protocol, or analyse without it)")
@@ -165,3 +175,4 @@ def perturbation_frequency(angle: np.ndarray, prepared: ScheduleInput, *, fs: fl
         window = int(round(float(np.median(prepared.cycle_lengths_s)) * fs))
         y = y - uniform_filter1d(y, max(window, 1), mode="nearest")
     return motion_frequency(y, fs)
+

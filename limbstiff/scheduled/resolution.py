@@ -76,7 +76,8 @@ class Resolution:
     ----------
     scores : tuple of ResolutionScore
     chosen : int
-        Knots of the best held-out score.
+        The fewest knots within one standard error of the best held-out score
+        (:func:`one_standard_error`).
     n_units : int
         Units (cycles or stretches) scored.
     """
