@@ -288,3 +288,15 @@ def test_c3d_schedule_channel_in_a_free_unit(tmp_path):
     assert read_trial(path, protocol_from_dict({"columns": columns})).schedule_unit == "mV"
     with pytest.raises(TrialError, match=r"\[cycles\] marker\) is not read from C3D files"):
         read_trial(path, protocol_from_dict({"columns": columns, "cycles": {"marker": "Sync"}}))
+
+
+def test_the_angle_itself_can_be_the_schedule(tmp_path):
+    """Stiffness against position: the schedule names the angle's own standard column."""
+    from limbstiff.files import read_trial
+    from limbstiff.protocol import Column, Protocol
+    path = tmp_path / "t.csv"
+    t = np.arange(200) / 100.0
+    path.write_text("time_s,angle_rad,torque_Nm\n" + "".join(f"{a},{np.sin(a)},{np.cos(a)}\n" for a in t))
+    trial = read_trial(path, Protocol(columns={"schedule": Column(header="angle_rad")}))
+    assert trial.schedule_unit == "rad"
+    np.testing.assert_array_equal(trial.schedule, trial.angle)

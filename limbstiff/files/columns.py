@@ -104,7 +104,9 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
     marker = getattr(getattr(protocol, "cycles", None), "marker", None)
     if marker is not None:
         located["marker"] = _locate(file, "marker", marker)
-    claimed = {headers[index] for index in located.values()}
+    # the schedule may be a column that is also a quantity (the angle itself: stiffness against
+    # position), so it claims no header from the standard ones
+    claimed = {headers[index] for field, index in located.items() if field != "schedule"}
     standard = _standard_headers(where, headers, row, claimed, noun)
     covered = _covered(mapped)
     columns: dict[str, ColumnSpec] = {}
@@ -238,7 +240,7 @@ def _mapped_column(file: _Listing, field: str, spec, index: int,
                                 f"give one in the protocol ([columns.{field}] unit)")
     _check_field_unit(where, noun, header, unit, field, label)
     other = [_LABELS[c.field] for c in columns.values() if c.header == header]
-    if other:
+    if other and field != "schedule":
         raise TrialError(where, f"{noun} '{header}' is given by the protocol for both "
                                 f"{other[0]} and {label}")
     return ColumnSpec(field, header, index, unit, spec.scale)
