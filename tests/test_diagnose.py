@@ -330,6 +330,12 @@ def test_cli_writes_the_contract(tmp_path):
     assert {"trial", "reported", "verdict", "effects", "with_effects", "verdict_with_effects", "note"} <= set(row)
     assert row["effects"] == ["reflex"] and {"median", "lo", "hi"} <= set(row["with_effects"])
     assert "disagree" not in res.output
+    # --no-pdf into the same folder: the json again, and no report of the earlier run left beside it
+    again = CliRunner().invoke(main, ["diagnose", str(path), "--out", str(out), "--inertia", "0.015", "--damping",
+                                      "1.0", "--seed", "3", "--no-pdf", "--overwrite"])
+    assert again.exit_code == 0, again.output
+    assert json.loads((out / "diagnosis.json").read_text())["diagnosis"] == data["diagnosis"]
+    assert not (out / "diagnosis.pdf").exists()
 
 
 def test_cli_bad_input_is_one_line_and_exit_status(tmp_path):

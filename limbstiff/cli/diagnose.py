@@ -22,13 +22,14 @@ from .options import (fail, jobs_option, load_protocol_or_default, n_jobs, out_o
               help="The damping b the set-up assumes (N·m·s/rad, or N·s/m); otherwise identified.")
 @jobs_option
 @scheduler_option
+@click.option("--no-pdf", is_flag=True, help="Do not write diagnosis.pdf.")
 @overwrite_option
 @reports_errors
 def command(paths: tuple[str, ...], protocol_path: str | None, out: str, seed: int, inertia: float | None,
-            damping: float | None, jobs: int | None, scheduler: str | None, overwrite: bool) -> None:
+            damping: float | None, jobs: int | None, scheduler: str | None, no_pdf: bool, overwrite: bool) -> None:
     """Diagnose the gap between the nominal model and the trials in PATHS (together: the effects'
     amplitudes are shared, each trial is held out block by block); write diagnosis.json and
-    diagnosis.pdf."""
+    diagnosis.pdf (not with --no-pdf)."""
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
     from ..files.outputs import refuse_existing
     from ..diagnosis.run import diagnose_files
@@ -40,7 +41,7 @@ def command(paths: tuple[str, ...], protocol_path: str | None, out: str, seed: i
     with dask_executor(scheduler) as executor:
         report = diagnose_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, seed=seed,
                                 inertia=inertia, damping=damping, jobs=jobs, executor=executor,
-                                progress=Progress())
+                                progress=Progress(), pdf=not no_pdf)
     for line in report.failed:
         click.echo(f"limbstiff: error: {line}", err=True)
     if report.diagnosis is None:

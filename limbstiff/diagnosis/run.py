@@ -397,10 +397,11 @@ def _read_and_analyze(job) -> AnalysedTrial:
 
 def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-diagnose",
                    seed: int = 0, inertia: float | None = None, damping: float | None = None, jobs: int = 1,
-                   executor=None, progress=None) -> DiagnoseReport:
+                   executor=None, progress=None, pdf: bool = True) -> DiagnoseReport:
     """Read the trials named by ``paths``, diagnose them together, write the outputs.
 
-    Writes ``OUT/diagnosis.json`` and ``OUT/diagnosis.pdf`` (docs/interface.md section 5), atomically.
+    Writes ``OUT/diagnosis.json`` and, with ``pdf``, ``OUT/diagnosis.pdf`` (docs/interface.md section
+    5), atomically; without it, a ``diagnosis.pdf`` of an earlier run is removed (it would not match).
     A trial that cannot be read or analysed is left out with a one-line reason (``failed``);
     the others are still diagnosed. The trials are read and analysed in ``jobs`` processes (or on
     ``executor``, e.g. a dask cluster's: each trial and its analysis return to this process, which
@@ -444,5 +445,9 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     data = diag.to_dict()
     data["failed"] = list(failed)
     write_json(out / "diagnosis.json", data)
-    diag.plot(out / "diagnosis.pdf")
-    return DiagnoseReport(diag, out, tuple(failed), (str(out / "diagnosis.json"), str(out / "diagnosis.pdf")))
+    if pdf:
+        diag.plot(out / "diagnosis.pdf")
+    elif (out / "diagnosis.pdf").exists():
+        (out / "diagnosis.pdf").unlink()
+    written = (str(out / "diagnosis.json"),) + ((str(out / "diagnosis.pdf"),) if pdf else ())
+    return DiagnoseReport(diag, out, tuple(failed), written)
