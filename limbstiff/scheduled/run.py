@@ -101,6 +101,3 @@ def curve_analysis(prepared: ScheduleInput, terms: ScheduleTerms, estimate, iden
     errors = unit_errors(e[0], var, unit)
     checks = (heldout_check(score, noun=noun), disagree_check(errors, noun=noun, first_s=starts), motion_check(curve))
     return CurveAnalysis(curve, terms.resolution, prepared.to_dict(), checks, prepared.u)
-
-
-
