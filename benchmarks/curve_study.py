@@ -190,6 +190,11 @@ def section(out: dict) -> str:
                  f"{100 * max(r['median_error'] for r in ok):.1f} %), coverage "
                  f"{100 * np.mean(np.concatenate([r['inside'] for r in ok])):.0f} %. Band half-width ÷ median error, "
                  f"median over the trials: {np.median([r['relative_width'] / 2 / max(r['median_error'], 1e-9) for r in done]):.2f}.")
+    with_reflex = [r for r in done if r.get("reflex")]
+    without = [r for r in done if not r.get("reflex")]
+    lines.append(f"\nThe `reflex` check fired (and the trial was analysed again with the reflex in the model) on "
+                 f"{sum(r['rerun_with_reflex'] for r in with_reflex)} of the {len(with_reflex)} trials whose generator "
+                 f"has a reflex, and on {sum(r['rerun_with_reflex'] for r in without)} of the {len(without)} without.")
     if out.get("timing"):
         t = out["timing"]
         lines.append(f"\nTiming (CPU, one run each): 100 cycles of 1.5 s as an ensemble {t['ensemble_cpu_s']:.1f} s, "
