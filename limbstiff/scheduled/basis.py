@@ -7,10 +7,11 @@ is) and as fine as J makes it (J chosen by held-out prediction, :mod:`.resolutio
 knot's hat is left out: the constant is the walk's level, which the model's diffuse start already
 holds, so the weights are each knot's stiffness less the first's.
 
-Each weight enters the torque through the spring's deflection g (the angle less its moving
-average, :func:`~limbstiff.statespace.steps.deflection`): a column h_j(u)·g per weight, whose
-coefficient is linear like m and b (:mod:`limbstiff.statespace.linear`), identified with them and
-drawn with them by the posterior. Pure numpy: no I/O.
+Each weight enters the torque as one column (:meth:`StiffnessBasis.columns`): on the phase h_j(φ)·θ′,
+θ′ the angle's deviation from the cycles' mean path; on a schedule Σ h_j(u)·Δy, what the elastic
+torque gains along the way. Its coefficient is linear like m and b
+(:mod:`limbstiff.statespace.linear`), identified with them and drawn with them by the posterior.
+Pure numpy: no I/O.
 """
 
 from __future__ import annotations
