@@ -23,11 +23,10 @@ Modules (one idea each):
   of them integrated out, their sandwich covariance;
 - :mod:`.kernels` — the loops, compiled with numba.
 
-What it is built to carry next: a stiffness that is a smooth function of a cycle's phase or of a
-recorded variable, σ = Σ_j β_j·φ_j(·) + walk, adds to the torque Σ_j β_j·Σ_k φ_j·Δy — a column per
-basis function, so its weights are linear coefficients like m and b (:func:`.linear.marginal`);
-a live estimate is the forward pass (:func:`.smoother.kalman_filter`), whose moments at a step
-use the data up to it only.
+A stiffness that is a smooth function of a cycle's phase or of a recorded variable,
+σ = Σ_j β_j·h_j(·) + walk, adds one column per basis function whose weight is a linear coefficient
+like m and b (:func:`.linear.marginal`; :mod:`limbstiff.scheduled`). A live estimate is the forward
+pass (:func:`.smoother.kalman_filter`), whose moments at a step use the data up to it only.
 Pure numpy and scipy: no I/O. Below estimation, identification, checks, the corner scan and the
 diagnosis (docs/architecture.md, "Layering").
 """
