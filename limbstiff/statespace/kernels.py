@@ -198,16 +198,47 @@ def kalman_channel_innovations(d, g, chans, slopes, r, qs, qk, qc, p11, p22, res
     variance : ndarray, shape (n,)
         Their common variance S.
     """
-    innovations, variance = kalman_row_innovations(d, g, np.ascontiguousarray(chans.T), slopes, r, qs, qk, qc,
-                                                   p11, p22, restart)
-    return np.ascontiguousarray(innovations.T), variance
+    nc = chans.shape[0]
+    n = chans.shape[1]
+    s = np.empty(nc)
+    sig = np.empty(nc)
+    for c in range(nc):
+        s[c] = chans[c, 0]
+        sig[c] = slopes[c]
+    innovations = np.empty((nc, n))
+    variance = np.empty(n)
+    a11 = p11
+    a12 = 0.0
+    a22 = p22
+    for i in range(n):
+        if i > 0 and restart[i]:
+            for c in range(nc):
+                s[c] = chans[c, i]
+                sig[c] = slopes[c]
+            a11 = p11
+            a12 = 0.0
+            a22 = p22
+        elif i > 0:
+            di = d[i]
+            for c in range(nc):
+                s[c] += sig[c] * di
+            a11, a12, a22 = _predict(a11, a12, a22, di, g[i], qs, qk, qc)
+        sv, g1, g2, a11, a12, a22 = _update(a11, a12, a22, r)
+        for c in range(nc):
+            e = chans[c, i] - s[c]
+            innovations[c, i] = e
+            s[c] += g1 * e
+            sig[c] += g2 * e
+        variance[i] = sv
+    return innovations, variance
 
 
 def kalman_row_innovations(d, g, chans_t, slopes, r, qs, qk, qc, p11, p22, restart):
-    """The pass of :func:`kalman_channel_innovations` with the channels as columns: ``chans_t``
-    (n, c) and the innovations (n, c), each step's channels contiguous — several times faster for
-    many channels (a curve's weights), whose loop over channels the step's row keeps in cache.
-    Arguments otherwise as :func:`kalman_quadratic`.
+    """:func:`kalman_channel_innovations` with the channels as columns: ``chans_t`` (n, c) and
+    the innovations (n, c), each step's channels contiguous — several times faster for many
+    channels (a curve's weights), whose loop over channels the step's row keeps in cache. The loop
+    is written twice on purpose: for the 3–4 channels of m, b and an effect, the transposed copy
+    this layout needs made the likelihood 13 % slower (0.63 against 0.56 ms on 6000 steps).
     """
     n, nc = chans_t.shape
     s = np.empty(nc)
@@ -288,7 +319,7 @@ def _compile():
     g = globals()
     # callees first, so that the compiled callers call compiled code
     for name in ("_predict", "_update", "_advance", "_observe", "linear_recursion", "kalman_filter", "kalman_innovations", "kalman_loglik",
-                 "rts_smoother", "kalman_row_innovations", "kalman_channel_innovations", "kalman_quadratic"):
+                 "rts_smoother", "kalman_channel_innovations", "kalman_row_innovations", "kalman_quadratic"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True
 
