@@ -168,22 +168,9 @@ def _names(names: Sequence[str], shown: int = 3) -> str:
 def _outputs_state(job: BatchJob[JobOptions], *, files: Sequence[str], marker: str) -> str:
     """What the job's outputs are to this run (:func:`~limbstiff.batch.table.outputs_state`);
     an ensemble's input is its files, by :func:`source_sha256`."""
-    if not getattr(job.options, "ensemble", ()):
-        return outputs_state(job.out, source=job.source, run_sha256=job.options.run_sha256, files=files, marker=marker)
-    try:
-        summary = json.loads((job.out / marker).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return "absent"
-    if not isinstance(summary, dict):
-        return "absent"
-    if summary.get("run_sha256") != job.options.run_sha256:
-        return "settings"
-    try:
-        if summary.get("source_sha256") != source_sha256(job):
-            return "input"
-    except OSError:
-        return "input"
-    return "current" if all((job.out / f).is_file() for f in files) else "files"
+    ensemble = getattr(job.options, "ensemble", ())
+    return outputs_state(job.out, source=job.source, run_sha256=job.options.run_sha256, files=files, marker=marker,
+                         input_sha256=(lambda: source_sha256(job)) if ensemble else None)
 
 
 def source_sha256(job: BatchJob) -> str:

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from io import StringIO
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 from ..files.atomic import atomic_write_text
 from ..files.outputs import SUMMARY_JSON
@@ -195,7 +195,7 @@ def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: I
 
 
 def outputs_state(directory: Path, *, source: Path, run_sha256: str, files: Iterable[str],
-                  marker: str = SUMMARY_JSON) -> str:
+                  marker: str = SUMMARY_JSON, input_sha256: Callable[[], str] | None = None) -> str:
     """What a trial's outputs in ``directory`` are to a run about to make them, read before it does.
 
     Returns
@@ -204,7 +204,8 @@ def outputs_state(directory: Path, *, source: Path, run_sha256: str, files: Iter
         ``absent`` (no complete outputs: ``marker`` missing or unreadable), ``current`` (made from
         ``source`` as it is, with ``run_sha256``, every file in ``files`` there), ``settings`` (made
         with another run fingerprint: settings, seed, reference or version), ``input`` (from
-        another content of ``source``) or ``files`` (lacking a file of ``files``).
+        another content of ``source``) or ``files`` (lacking a file of ``files``). ``input_sha256``
+        computes the input's SHA-256 when it is not ``source``'s alone (an ensemble's files).
     """
     from ..files.atomic import sha256_file
 
@@ -217,7 +218,7 @@ def outputs_state(directory: Path, *, source: Path, run_sha256: str, files: Iter
     if summary.get("run_sha256") != run_sha256:
         return "settings"
     try:
-        if summary.get("source_sha256") != sha256_file(source):
+        if summary.get("source_sha256") != (sha256_file(source) if input_sha256 is None else input_sha256()):
             return "input"
     except OSError:
         return "input"
