@@ -168,13 +168,17 @@ def schedule_curve(estimate, ident, *, against: str, u: np.ndarray, cycle: np.nd
     lo, hi = np.quantile(centre + dev, [0.5 - level / 2, 0.5 + level / 2], axis=0)
     spread = np.full((2, bins), np.nan)
     if cycle is not None:
-        cyc = cycle[samples]
-        count = np.array([len(np.unique(cyc[which == b])) for b in range(bins)])
-        for b in range(bins):
-            per_cycle = [stiffness[samples[(which == b) & (cyc == c)]].mean() for c in np.unique(cyc[which == b])]
-            if len(per_cycle) >= MIN_BIN_CYCLES:
-                spread[:, b] = np.percentile(per_cycle, [10, 90])
+        # each cycle's own mean in each bin, (bins, cycles), NaN where the cycle has none there
+        n_cycles = int(cycle.max()) + 1
+        key = which * n_cycles + cycle[samples]
+        hits = np.bincount(key, minlength=bins * n_cycles).reshape(bins, n_cycles)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            per_cycle = np.bincount(key, weights=stiffness[samples], minlength=bins * n_cycles).reshape(
+                bins, n_cycles) / hits
+        count = np.count_nonzero(hits, axis=1)
         enough = count >= MIN_BIN_CYCLES
+        if enough.any():
+            spread[:, enough] = np.nanpercentile(per_cycle[enough], [10, 90], axis=1)
     else:
         # each model step stands for the samples between it and the next
         count = np.bincount(which, minlength=bins) * int(np.median(np.diff(idx))) if len(idx) > 1 else \
