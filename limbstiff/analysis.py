@@ -38,6 +38,7 @@ from .filtered import Filtered, filter_trial
 from .files import read_trial
 from .mechanics.effect_terms import EffectTerms, joined
 from .mechanics.identification import Identification, identify_mechanics
+from .mechanics.likelihood import MechanicsFit
 from .protocol import Protocol, load_protocol
 from .result import DerivedSettings, StiffnessResult, result_units, software
 from .scheduled import run as scheduled
@@ -135,13 +136,14 @@ def derive_settings(filtered: Filtered, protocol: Protocol, *, where: str = "tri
 
 
 def _mechanics(filtered: Filtered, protocol: Protocol, *, seed: int, where: str,
-               effects: EffectTerms | None = None, basis: EffectTerms | None = None) -> Identification | None:
+               effects: EffectTerms | None = None, basis: EffectTerms | None = None,
+               fit: MechanicsFit | None = None) -> Identification | None:
     """m and b for the external variant (with the check of the protocol's expected range)."""
     if filtered.variant != "external":
         return None
     try:
         ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=where,
-                                   effects=effects, basis=basis)
+                                   effects=effects, basis=basis, fit=fit)
     except TrialError as exc:
         hint = sign_hint(filtered)
         raise (TrialError(exc.source, f"{exc.problem}; {hint}") if hint else exc) from None
@@ -242,7 +244,8 @@ def _model(trial: Trial, filtered: Filtered, protocol: Protocol, derived: Derive
     terms = terms_for(trial, filtered, protocol, where=where)
     curve_terms = None if prepared is None else scheduled.curve_terms(filtered, prepared, protocol, terms, where=where)
     ident = _mechanics(filtered, protocol, seed=seed, where=where, effects=terms,
-                       basis=None if curve_terms is None else curve_terms.terms)
+                       basis=None if curve_terms is None else curve_terms.terms,
+                       fit=None if curve_terms is None else curve_terms.fit)
     model_terms = joined(terms, None if curve_terms is None else curve_terms.terms)
     if model_terms is not None:
         filtered = filtered_without(filtered, model_terms, ident.coefficients[2:])

@@ -144,7 +144,7 @@ class Identification:
 
 def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random.Generator, seed: int,
                        where: str = "trial", effects: EffectTerms | None = None,
-                       basis: EffectTerms | None = None) -> Identification:
+                       basis: EffectTerms | None = None, fit: MechanicsFit | None = None) -> Identification:
     """Inertia and damping: the protocol's where given, else least squares → ML → emcee posterior.
 
     Parameters
@@ -165,6 +165,9 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     basis : EffectTerms, optional
         The torques of the stiffness curve's weights (:mod:`limbstiff.scheduled`): linear
         coefficients like the effects' amplitudes, after them.
+    fit : MechanicsFit, optional
+        The maximum-likelihood fit of this very problem (the same signals, effects, curve and given
+        m and b), when it was already made: the curve's resolution fits each candidate's.
 
     Returns
     -------
@@ -182,7 +185,7 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     decimation = kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
     extra = [t.columns for t in (effects, basis) if t]
     problem, guess = mechanics_problem(filtered, given=given, extra=np.vstack(extra) if extra else None)
-    fit = kalman_mechanics(problem, guess=guess)
+    fit = fit if fit is not None else kalman_mechanics(problem, guess=guess)
     post = sample(problem, start=fit, inertia_prior=protocol.inertia_prior, damping_prior=protocol.damping_prior,
                   rng=rng, seed=seed, given=given)
     effect = NO_EFFECT if given is not None else _angle_error(filtered, fit, guess, decimation, rng)

@@ -48,6 +48,12 @@ class ScheduleTerms:
     u: np.ndarray
     terms: EffectTerms | None
 
+    @property
+    def fit(self):
+        """The chosen model's maximum-likelihood fit (:class:`~limbstiff.mechanics.likelihood.MechanicsFit`),
+        made while choosing the resolution: the identification starts from it."""
+        return self.resolution.score_of(self.resolution.chosen).fit
+
 
 def candidates(against: str, u: np.ndarray, *, n_steps: int, unit: str) -> dict[int, StiffnessBasis]:
     """The resolutions worth trying (:data:`~.basis.PHASE_KNOTS` or :data:`~.basis.SCHEDULE_KNOTS`),

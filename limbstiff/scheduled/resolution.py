@@ -14,13 +14,13 @@ left-out unit are dropped: the zero-phase filter spreads its torque that far. Pu
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..filtered import Filtered
 from ..mechanics.identification import mechanics_problem
-from ..mechanics.likelihood import kalman_mechanics
+from ..mechanics.likelihood import MechanicsFit, kalman_mechanics
 from ..statespace.linear import innovations
 from .basis import StiffnessBasis
 
@@ -49,6 +49,9 @@ class ResolutionScore:
     model_error : float
         The same over all steps, the coefficients fitted on all of them: what the model expects
         of itself.
+    fit : MechanicsFit or None
+        The model's maximum-likelihood fit on the identification's problem (its noise levels):
+        the identification of the resolution chosen starts from it instead of fitting it again.
     """
 
     knots: int
@@ -57,6 +60,7 @@ class ResolutionScore:
     explained: float
     unit_error: np.ndarray
     model_error: float
+    fit: MechanicsFit | None = field(default=None, compare=False, repr=False)
 
     @property
     def heldout_error(self) -> float:
@@ -200,7 +204,7 @@ def choose_resolution(filtered: Filtered, bases: dict[int, StiffnessBasis], colu
         e, var = innovations(problem.steps, fit.noise)
         guard = int(np.ceil(GUARD_CORNER_PERIODS / (corner * problem.steps.step)))
         scored = heldout_score(e, var, _settled(unit[problem.steps.index], problem.steps.restart, guard), guard=guard)
-        scores.append(dataclasses.replace(scored, knots=knots))
+        scores.append(dataclasses.replace(scored, knots=knots, fit=fit))
     return Resolution(tuple(scores), one_standard_error(scores), int(unit.max()) + 1)
 
 
