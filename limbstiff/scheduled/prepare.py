@@ -87,7 +87,7 @@ def schedule_input(trial: Trial, protocol, *, where: str) -> ScheduleInput | Non
         Fewer than :data:`~limbstiff.cycles.MIN_CYCLES` whole cycles, no marker edges, no schedule
         column.
     """
-    spec = getattr(protocol, "cycles", None)
+    spec = protocol.cycles
     if spec is not None:
         return _ensemble(trial, spec, where=where)
     if "schedule" in protocol.columns or trial.schedule is not None:
