@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..statespace.linear import innovations, long_run_lags, marginal, sandwich_covariance
+from ..statespace.linear import innovations, long_run_lags, marginal, marginal_many, sandwich_covariance
 from ..statespace.noise import NoiseLevels, maximise, noise_bounds
 from ..statespace.steps import ModelSteps, mechanics_steps
 from .least_squares import LeastSquaresFit
@@ -97,6 +97,11 @@ class MechanicsProblem:
         """
         out = marginal(self.steps, NoiseLevels.from_logs(log_noise))
         return out.loglik, out.coefficients, out.covariance
+
+    def conditionals(self, log_noise: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`conditional` at each row of ``log_noise`` (K, 4), in one compiled call where
+        the channels are few: log-likelihoods (K,), means (K, p), covariances (K, p, p)."""
+        return marginal_many(self.steps, log_noise)
 
 
 @dataclass(frozen=True)

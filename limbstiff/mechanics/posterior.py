@@ -16,11 +16,18 @@ import numpy as np
 
 from ..statespace.noise import NoiseLevels
 from ..protocol import Prior
+from .proposal import StudentProposal
 
 #: The chain must be this many autocorrelation times long (emcee's recommendation: ≥ 50).
 MIN_TAU_MULTIPLE = 50
-#: Steps per block between convergence checks, and the most steps run.
-BLOCK_STEPS, MAX_STEPS = 250, 10_000
+#: Steps of the adaptation that fits the independence proposal (differential evolution only,
+#: discarded), steps per block between convergence checks, and the most steps run after it.
+ADAPT_STEPS, BLOCK_STEPS, MAX_STEPS = 100, 50, 10_000
+#: Rounds of adaptation, each :data:`ADAPT_STEPS` long.
+ADAPT_ROUNDS = 2
+#: Share of the chain's steps that draw from the independence proposal; the rest are differential
+#: evolution, which still moves the walkers where the proposal is poor.
+INDEPENDENCE_SHARE = 0.8
 #: Walkers: emcee's stretch move wants at least twice the dimension (4 noise levels).
 N_WALKERS = 8
 #: The walkers start at least this far inside the noise levels' bounds (natural-log units).
@@ -218,7 +225,9 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     burn = int(min(steps // 2, 3 * np.max(tau)))
     flat = sampler.get_chain(discard=burn, flat=True)
     thin = max(1, len(flat) // N_DRAWS)
-    noise = flat[::thin][-N_DRAWS:]
+    # a chain shorter than the draws wanted: its states repeated, each with a draw of its own
+    # of the coefficients
+    noise = np.resize(flat[::thin][-N_DRAWS:], (N_DRAWS, flat.shape[1]))
     draws, amplitudes, why = _with_mechanics(problem, noise, inertia_prior, damping_prior, rng, given)
     warnings += why
     acceptance = float(np.mean(sampler.acceptance_fraction))
@@ -231,12 +240,15 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
 
 
 def _run_chain(problem, start, rng: np.random.Generator):
-    """emcee over the four log noise levels, in blocks of :data:`BLOCK_STEPS` until the chain is
-    :data:`MIN_TAU_MULTIPLE` autocorrelation times long or :data:`MAX_STEPS` are run.
+    """emcee over the four log noise levels: :data:`ADAPT_STEPS` of differential evolution to fit
+    the independence proposal (:mod:`limbstiff.mechanics.proposal`; discarded), then the chain with
+    both moves, in blocks of :data:`BLOCK_STEPS` until it is :data:`MIN_TAU_MULTIPLE`
+    autocorrelation times long or :data:`MAX_STEPS` are run.
 
     Returns
     -------
     sampler : emcee.EnsembleSampler
+        The chain after the adaptation.
     steps : int
     tau : ndarray, shape (4,)
         Integrated autocorrelation times, steps.
@@ -247,9 +259,9 @@ def _run_chain(problem, start, rng: np.random.Generator):
 
     def log_prob(thetas):
         out = np.full(len(thetas), -np.inf)
-        for j, th in enumerate(thetas):
-            if np.all((th >= lo) & (th <= hi)):
-                out[j] = problem.conditional(th)[0]
+        inside = np.all((thetas >= lo) & (thetas <= hi), axis=1)
+        if np.any(inside):
+            out[inside] = problem.conditionals(thetas[inside])[0]
         return out
 
     # inside the bounds: walkers clipped onto a bound together would coincide, and emcee's snooker
@@ -259,14 +271,28 @@ def _run_chain(problem, start, rng: np.random.Generator):
     p0 = np.clip(centre + 0.05 * rng.standard_normal((N_WALKERS, len(centre))), lo, hi)
     # differential-evolution moves: integrated autocorrelation times of ~15 steps here against
     # ~45 with the default stretch move (the stiffness walk's posterior often rests on a bound)
-    moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    de = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    state, moves = p0, de
+    random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
+    # two rounds: the first proposal, fitted to walkers still spreading out, is too narrow; the
+    # second is fitted to the faster chain the first one gives
+    for _ in range(ADAPT_ROUNDS):
+        adapt = emcee.EnsembleSampler(N_WALKERS, len(centre), log_prob, vectorize=True, moves=moves)
+        adapt.random_state = random_state
+        state = adapt.run_mcmc(state, ADAPT_STEPS, progress=False)
+        random_state = adapt.random_state
+        proposal = StudentProposal.fit(adapt.get_chain(discard=ADAPT_STEPS // 2, flat=True), problem.bounds)
+        moves = de if proposal is None else (
+            [(emcee.moves.MHMove(proposal.propose), INDEPENDENCE_SHARE)]
+            + [(move, (1.0 - INDEPENDENCE_SHARE) * w) for move, w in de])
     sampler = emcee.EnsembleSampler(N_WALKERS, len(centre), log_prob, vectorize=True, moves=moves)
-    sampler.random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
-    state, steps = p0, 0
+    sampler.random_state = random_state
+    steps = 0
     while True:
         state = sampler.run_mcmc(state, BLOCK_STEPS, progress=False)
         steps += BLOCK_STEPS
         tau = autocorr_time(sampler.get_chain())
+        # NaN: a walker has not moved yet, and the chain is not long enough either
         if steps >= MIN_TAU_MULTIPLE * np.max(tau) or steps >= MAX_STEPS:
             return sampler, steps, tau
 
@@ -284,15 +310,12 @@ def _with_mechanics(problem, noise: np.ndarray, inertia_prior: Prior, damping_pr
     amplitudes : ndarray, shape (n, k)
     warnings : list of str
     """
-    coef, seen = None, {}
-    for j, th in enumerate(noise):
-        key = th.tobytes()                # a walker that stays put repeats its state: one pass for it
-        if key not in seen:
-            seen[key] = problem.conditional(th)[1:]
-        mean, cov = seen[key]
-        if coef is None:
-            coef = np.empty((len(noise), len(mean)))
-        coef[j] = rng.multivariate_normal(mean, cov)
+    # a walker that stays put repeats its state: one pass for each distinct state
+    distinct, which = np.unique(noise, axis=0, return_inverse=True)
+    _, means, covs = problem.conditionals(distinct)
+    coef = np.empty((len(noise), means.shape[1]))
+    for j, k in enumerate(which.ravel()):
+        coef[j] = rng.multivariate_normal(means[k], covs[k])
     if given is not None:
         mech, amps = np.tile(np.asarray(given, dtype=float), (len(noise), 1)), coef
         return np.hstack([mech, noise]), amps, []

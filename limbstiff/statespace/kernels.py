@@ -309,6 +309,102 @@ def kalman_quadratic(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart):
     return sum_log_s, a
 
 
+def kalman_quadratic_many(d, g, chans, slopes, per_step, p11, p22, restart):
+    """:func:`kalman_quadratic` for several noise levels in one call (an ensemble's walkers).
+
+    Each row of ``per_step`` (K, 4) holds (r, qs, qk, qc); the pass is fused, the innovations
+    never stored, and the sums are taken in :func:`kalman_quadratic`'s order, so every row's
+    result equals its separate call to the bit.
+
+    Returns
+    -------
+    sum_log_s : ndarray, shape (K,)
+    a : ndarray, shape (K, c, c)
+    """
+    nc = chans.shape[0]
+    n = chans.shape[1]
+    nk = per_step.shape[0]
+    sums = np.zeros(nk)
+    quad = np.zeros((nk, nc, nc))
+    s = np.empty(nc)
+    sig = np.empty(nc)
+    e = np.empty(nc)
+    for j in range(nk):
+        r = per_step[j, 0]
+        qs = per_step[j, 1]
+        qk = per_step[j, 2]
+        qc = per_step[j, 3]
+        for c in range(nc):
+            s[c] = chans[c, 0]
+            sig[c] = slopes[c]
+        a11 = p11
+        a12 = 0.0
+        a22 = p22
+        sum_log_s = 0.0
+        for i in range(n):
+            if i > 0 and restart[i]:
+                for c in range(nc):
+                    s[c] = chans[c, i]
+                    sig[c] = slopes[c]
+                a11 = p11
+                a12 = 0.0
+                a22 = p22
+            elif i > 0:
+                di = d[i]
+                for c in range(nc):
+                    s[c] += sig[c] * di
+                a11, a12, a22 = _predict(a11, a12, a22, di, g[i], qs, qk, qc)
+            sv, g1, g2, a11, a12, a22 = _update(a11, a12, a22, r)
+            for c in range(nc):
+                e[c] = chans[c, i] - s[c]
+                s[c] += g1 * e[c]
+                sig[c] += g2 * e[c]
+            w = 1.0 / sv
+            for c in range(nc):
+                for c2 in range(nc):
+                    quad[j, c, c2] += e[c] * e[c2] * w
+            sum_log_s += math.log(sv)
+        sums[j] = sum_log_s
+    return sums, quad
+
+
+def marginal_two(sum_log_s, a, n):
+    """The closed form of :func:`~limbstiff.statespace.linear.integrate_out` for two coefficients
+    (m and b), for K quadratic forms ``a`` (K, 3, 3) at once.
+
+    Returns
+    -------
+    loglik : ndarray, shape (K,)
+        −inf where the form does not determine the coefficients.
+    mean : ndarray, shape (K, 2)
+    cov : ndarray, shape (K, 2, 2)
+    """
+    nk = a.shape[0]
+    loglik = np.empty(nk)
+    mean = np.full((nk, 2), np.nan)
+    cov = np.full((nk, 2, 2), np.nan)
+    log2pi = math.log(2.0 * math.pi)
+    for j in range(nk):
+        det = a[j, 1, 1] * a[j, 2, 2] - a[j, 1, 2] * a[j, 1, 2]
+        if not det > 0.0:
+            loglik[j] = -np.inf
+            continue
+        c11 = a[j, 2, 2] / det
+        c12 = -a[j, 1, 2] / det
+        c22 = a[j, 1, 1] / det
+        m = c11 * a[j, 0, 1] + c12 * a[j, 0, 2]
+        b = c12 * a[j, 0, 1] + c22 * a[j, 0, 2]
+        q_min = a[j, 0, 0] - (a[j, 0, 1] * m + a[j, 0, 2] * b)
+        loglik[j] = -0.5 * (n * log2pi + sum_log_s[j] + q_min) + log2pi - 0.5 * math.log(det)
+        mean[j, 0] = m
+        mean[j, 1] = b
+        cov[j, 0, 0] = c11
+        cov[j, 0, 1] = c12
+        cov[j, 1, 0] = c12
+        cov[j, 1, 1] = c22
+    return loglik, mean, cov
+
+
 def _compile():
     if os.environ.get("LIMBSTIFF_NO_JIT", "") not in ("", "0"):
         return False
@@ -319,7 +415,8 @@ def _compile():
     g = globals()
     # callees first, so that the compiled callers call compiled code
     for name in ("_predict", "_update", "_advance", "_observe", "linear_recursion", "kalman_filter", "kalman_innovations", "kalman_loglik",
-                 "rts_smoother", "kalman_channel_innovations", "kalman_row_innovations", "kalman_quadratic"):
+                 "rts_smoother", "kalman_channel_innovations", "kalman_row_innovations", "kalman_quadratic",
+                 "kalman_quadratic_many", "marginal_two"):
         g[name] = njit(cache=True, nogil=True)(g[name])
     return True
 

@@ -118,6 +118,39 @@ def marginal(steps: ModelSteps, noise: NoiseLevels) -> Marginal:
     return integrate_out(sum_log_s, a, steps.channels.shape[1])
 
 
+def marginal_many(steps: ModelSteps, log_noise: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`marginal` at several noise levels: one compiled call for all of them when the
+    channels are few (every row equal to its own :func:`marginal` to the bit).
+
+    Parameters
+    ----------
+    steps : ModelSteps
+    log_noise : ndarray, shape (K, 4)
+        ln (R, Q_s, Q_σ, Q_c) per row.
+
+    Returns
+    -------
+    loglik : ndarray, shape (K,)
+    coefficients : ndarray, shape (K, p)
+    covariance : ndarray, shape (K, p, p)
+    """
+    log_noise = np.atleast_2d(np.asarray(log_noise, dtype=float))
+    c = len(steps.channels)
+    if c > MANY_CHANNELS or c == 1:
+        out = [marginal(steps, NoiseLevels.from_logs(row)) for row in log_noise]
+        return (np.array([o.loglik for o in out]), np.array([o.coefficients for o in out]).reshape(len(out), c - 1),
+                np.array([o.covariance for o in out]).reshape(len(out), c - 1, c - 1))
+    per_step = np.exp(log_noise) * np.array([1.0, steps.step, steps.step, steps.step])
+    args = _pass_args(steps, NoiseLevels(1.0, 1.0, 1.0, 1.0))
+    sums, quad = kernels.kalman_quadratic_many(*args[:4], per_step, *args[8:])
+    n = steps.channels.shape[1]
+    if c == 3:
+        return kernels.marginal_two(sums, quad, n)
+    out = [integrate_out(float(s_), a, n) for s_, a in zip(sums, quad)]
+    return (np.array([o.loglik for o in out]), np.array([o.coefficients for o in out]),
+            np.array([o.covariance for o in out]))
+
+
 def long_run_covariance(scores: np.ndarray, lags: int) -> np.ndarray:
     """Σ_k g_k·g_kᵀ plus the Bartlett-weighted cross terms of lags 1…``lags`` (Newey & West 1987,
     Econometrica 55:703): the variance of Σ g_k when neighbouring terms are correlated.
