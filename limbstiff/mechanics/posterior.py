@@ -297,6 +297,27 @@ def _run_chain(problem, start, rng: np.random.Generator):
             return sampler, steps, tau
 
 
+def gaussian_draws(means: np.ndarray, covs: np.ndarray, which: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """One draw from the Gaussian N(means[k], covs[k]) for each k in ``which``, all at once.
+
+    Parameters
+    ----------
+    means : ndarray, shape (K, p)
+    covs : ndarray, shape (K, p, p)
+        Symmetric, positive semi-definite (negative eigenvalues of rounding are taken as 0).
+    which : ndarray of int, shape (n,)
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    ndarray, shape (n, p)
+    """
+    values, vectors = np.linalg.eigh(covs)
+    roots = vectors * np.sqrt(np.clip(values, 0.0, None))[:, None, :]
+    z = rng.standard_normal((len(which), means.shape[1]))
+    return means[which] + np.einsum("nij,nj->ni", roots[which], z)
+
+
 def _with_mechanics(problem, noise: np.ndarray, inertia_prior: Prior, damping_prior: Prior,
                     rng: np.random.Generator, given=None) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """One draw of the coefficients (m, b, amplitudes) from their Gaussian conditional per kept
@@ -313,9 +334,7 @@ def _with_mechanics(problem, noise: np.ndarray, inertia_prior: Prior, damping_pr
     # a walker that stays put repeats its state: one pass for each distinct state
     distinct, which = np.unique(noise, axis=0, return_inverse=True)
     _, means, covs = problem.conditionals(distinct)
-    coef = np.empty((len(noise), means.shape[1]))
-    for j, k in enumerate(which.ravel()):
-        coef[j] = rng.multivariate_normal(means[k], covs[k])
+    coef = gaussian_draws(means, covs, which.ravel(), rng)
     if given is not None:
         mech, amps = np.tile(np.asarray(given, dtype=float), (len(noise), 1)), coef
         return np.hstack([mech, noise]), amps, []
