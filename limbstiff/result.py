@@ -208,6 +208,23 @@ class StiffnessResult:
         return (f"<StiffnessResult {self.trial.name!r}: median stiffness {median.median:.4g}{span} {unit}, "
                 f"verdict {self.verdict or '—'}, {100 * self.observable_fraction:.0f} % informed>")
 
+    def columns(self) -> dict[str, np.ndarray]:
+        """The per-sample columns of ``stiffness.csv``, in order, as arrays (see :meth:`to_frame`).
+
+        Returns
+        -------
+        dict of str to ndarray, each of shape (n,)
+            ``time_s``, ``stiffness``, ``stiffness_lo``, ``stiffness_hi`` (float, the result's own
+            arrays, not copies) and ``observable`` (int).
+        """
+        return {
+            "time_s": self.trial.time,
+            "stiffness": self.stiffness,
+            "stiffness_lo": self.stiffness_lo,
+            "stiffness_hi": self.stiffness_hi,
+            "observable": self.observable.astype(int),
+        }
+
     def to_frame(self):
         """The per-sample table of ``stiffness.csv`` as a :class:`pandas.DataFrame`.
 
@@ -218,13 +235,7 @@ class StiffnessResult:
         """
         import pandas as pd
 
-        return pd.DataFrame({
-            "time_s": self.trial.time,
-            "stiffness": self.stiffness,
-            "stiffness_lo": self.stiffness_lo,
-            "stiffness_hi": self.stiffness_hi,
-            "observable": self.observable.astype(int),
-        })
+        return pd.DataFrame(self.columns())
 
     def reference_samples(self, *, skip: float = REFERENCE_SKIP_S) -> np.ndarray:
         """The samples the error against the reference is taken over: informed by motion, after the
