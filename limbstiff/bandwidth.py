@@ -15,16 +15,18 @@ kept: the model stops improving beyond it. Pure numpy.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import signals
 from .checks.model import heldout_explained
-from .estimate.estimators import kalman
+from .estimate.kalman import fit_noise
 from .filtered import Filtered, filter_trial
 from .mechanics.least_squares import least_squares
 from .protocol import Protocol
+from .statespace.steps import kalman_decimation, model_steps
 from .trial import Trial
 
 #: Corners tried: this many, geometrically spaced from the spectral choice down.
@@ -90,15 +92,34 @@ def _middle(trial: Trial) -> Trial:
 
 
 def _score(filtered: Filtered, reference: np.ndarray) -> float | None:
+    """The held-out score at ``filtered``'s corner: m and b by least squares, the noise levels by
+    maximum likelihood as the analysis fits them (:func:`~limbstiff.estimate.kalman.fit_noise`;
+    the smoothed course is not needed)."""
     if filtered.variant == "external":
         fit = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
                             sample_period=filtered.sample_period, window=WINDOW_PERIODS / filtered.motion_hz)
         m, b = fit.inertia, fit.damping
-        noise = kalman(filtered, inertia=m, damping=b).fit.noise
     else:
         m = b = 0.0
-        noise = kalman(filtered).fit.noise
+    steps = model_steps(filtered.angle, filtered.elastic_torque(m, b), sample_period=filtered.sample_period,
+                        decimation=kalman_decimation(filtered.sample_period, filtered.cutoff_hz), edge=filtered.edge,
+                        motion_frequency=filtered.motion_hz, scale_from=filtered.torque)
+    noise = fit_noise(steps, motion_frequency=filtered.motion_hz)
     return heldout_explained(filtered, inertia=m, damping=b, noise=noise, reference=reference)
+
+
+def _at_corner(part: Trial, spectral: Filtered, corner_hz: float | None) -> Filtered:
+    """``part`` filtered at ``corner_hz``: what :func:`~limbstiff.filtered.filter_trial` gives with
+    ``corner_hz``, the spectra and noise figures that do not depend on the corner taken from
+    ``spectral`` instead of computed again."""
+    chain = dataclasses.replace(spectral.chain, cutoff_hz=corner_hz)
+    y = chain.apply(part.angle, 3)
+    f = chain.apply(part.torque if spectral.variant == "external" else part.elastic_torque, 1)
+    return dataclasses.replace(
+        spectral, angle=y[0], velocity=y[1], acceleration=y[2], jerk=y[3], torque=f[0], torque_rate=f[1], chain=chain,
+        bandwidth=dataclasses.replace(spectral.bandwidth, cutoff_hz=corner_hz),
+        motion_hz=signals.motion_frequency(y[0], part.fs),
+        velocity_noise=signals.velocity_noise_level(part.angle, part.fs, corner_hz))
 
 
 def corners_to_try(spectral: Filtered) -> list[float | None]:
@@ -140,7 +161,7 @@ def scan_corners(trial: Trial, protocol: Protocol) -> tuple[CornerScan, Filtered
     reference = spectral.chain.apply(recorded, 0)[0]
     scores, kept = [], {}
     for c in corners:
-        filtered = spectral if c == spectral.cutoff_hz else filter_trial(part, protocol, corner_hz=c)
+        filtered = spectral if c == spectral.cutoff_hz else _at_corner(part, spectral, c)
         scores.append(_score(filtered, reference))
         if part is trial:
             kept[c] = filtered

@@ -149,19 +149,22 @@ def _across_gap(angle: np.ndarray, smoothed: np.ndarray, a: int, b: int) -> np.n
     n, length = len(angle), b - a
     near = np.r_[max(0, a - length):a, b:min(n, b + length)]
     y, sigma = angle[near], smoothed[near, 1]
-    degree = min(2, len(np.unique(y)) - 1)          # an encoder's angle repeats its values
-    if degree < 0 or np.ptp(y) == 0:
+    lo, hi = (float(y.min()), float(y.max())) if len(near) else (0.0, 0.0)
+    if hi == lo:
         coef = np.array([float(np.mean(sigma)) if len(near) else 0.0])
     else:
+        # an encoder's angle repeats its values: a quadratic needs three distinct ones
+        degree = 2 if np.any((y > lo) & (y < hi)) else 1
         with warnings.catch_warnings():
             # a near-degenerate spread of angles: the fit is still the least-squares one, and the
             # user's terminal is not the place for numpy's RankWarning
             warnings.simplefilter("ignore", np.exceptions.RankWarning)
             coef = np.polyfit(y, sigma, degree)
-    elastic = _clipped_antiderivative(coef, *((y.min(), y.max()) if len(near) else (0.0, 0.0)))
-    gap = angle[a:b]
-    forward = smoothed[a - 1, 0] + elastic(gap) - elastic(angle[a - 1]) if a > 0 else None
-    backward = smoothed[b, 0] - (elastic(angle[b]) - elastic(gap)) if b < n else None
+    first, last = max(a - 1, 0), min(b + 1, n)
+    elastic = _clipped_antiderivative(coef, lo, hi)(angle[first:last])
+    gap = elastic[a - first:a - first + length]
+    forward = smoothed[a - 1, 0] + gap - elastic[0] if a > 0 else None
+    backward = smoothed[b, 0] - (elastic[-1] - gap) if b < n else None
     if forward is None or backward is None:
         return forward if backward is None else backward
     w = (np.arange(length) + 1.0) / (length + 1.0)
@@ -174,7 +177,7 @@ def _clipped_antiderivative(coef: np.ndarray, lo: float, hi: float):
     and extrapolated it bends without limit (on a stiffness ramp, where σ drifts with time and
     the angle with it, by several times the torque across a gap)."""
     integral = np.polyint(coef)
-    at_lo, at_hi = np.polyval(coef, lo), np.polyval(coef, hi)
+    at_lo, at_hi = np.polyval(coef, np.array([lo, hi]))
 
     def elastic(y):
         y = np.asarray(y, dtype=float)

@@ -92,6 +92,36 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
     return NoiseLevels(*np.exp(best)), value
 
 
+def data_guess(steps: ModelSteps) -> NoiseLevels:
+    """A first guess of the noise levels from the data at ``steps``: the measurement the residual
+    of the initial slope's line, the torque walking by as much over the record, the stiffness
+    walks by a tenth of the initial slope."""
+    y, z, mean0 = steps.angle, steps.measured, steps.initial_mean
+    duration = steps.step * len(y)
+    resid = float(np.var(z - mean0[1] * (y - y.mean()))) + 1e-300
+    walk = (0.1 * abs(mean0[1]) + 1e-12) ** 2
+    return NoiseLevels(measurement=resid, torque_walk=resid / duration, stiffness_walk=walk, coupled_walk=walk)
+
+
+def fit_noise(steps: ModelSteps, *, motion_frequency: float) -> NoiseLevels:
+    """Maximum-likelihood noise levels of the model on ``steps`` from :func:`data_guess`
+    (:func:`fit_noise_levels`): what :func:`kalman_stiffness` fits, without the smoothing.
+
+    Parameters
+    ----------
+    steps : ModelSteps
+    motion_frequency : float, Hz
+
+    Returns
+    -------
+    NoiseLevels
+    """
+    noise, _ = fit_noise_levels(steps.increments, steps.measured, step=steps.step, deflection=steps.deflection,
+                                initial_mean=steps.initial_mean, initial_cov=steps.initial_cov,
+                                guess=data_guess(steps), motion_frequency=motion_frequency)
+    return noise
+
+
 def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: float, decimation: int = 1,
                      motion_frequency: float, noise: NoiseLevels | None = None, regressors: tuple = (),
                      scale_from: np.ndarray | None = None,
@@ -131,12 +161,7 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
     idx, y, z, increments, step, g = st.index, st.angle, st.measured, st.increments, st.step, st.deflection
     mean0, cov0 = st.initial_mean, st.initial_cov
     if noise is None:
-        duration = step * len(y)
-        resid = float(np.var(z - mean0[1] * (y - y.mean()))) + 1e-300
-        walk = (0.1 * abs(mean0[1]) + 1e-12) ** 2
-        guess = NoiseLevels(measurement=resid, torque_walk=resid / duration, stiffness_walk=walk, coupled_walk=walk)
-        noise, _ = fit_noise_levels(increments, z, step=step, deflection=g, initial_mean=mean0, initial_cov=cov0,
-                                    guess=guess, motion_frequency=motion_frequency)
+        noise = fit_noise(st, motion_frequency=motion_frequency)
     out = kalman_smoother(increments, z, noise, step=step, deflection=g, initial_mean=mean0, initial_cov=cov0)
     back = to_samples(len(angle), edge, decimation, len(idx))
     responses = np.empty((len(regressors), len(angle)))
