@@ -33,6 +33,9 @@ from .trial_level import REFERENCE_SKIP_S, TrialLevel
 
 __all__ = ["StiffnessResult", "DerivedSettings", "Interval", "software"]
 
+#: Samples per block of the per-sample masks taken in blocks (a long trial's temporaries stay small).
+BLOCK = 1 << 18
+
 @dataclass(frozen=True)
 class DerivedSettings:
     """Settings of one analysis that the protocol left open and the trial's data decided.
@@ -239,8 +242,15 @@ class StiffnessResult:
 
     def reference_samples(self, *, skip: float = REFERENCE_SKIP_S) -> np.ndarray:
         """The samples the error against the reference is taken over: informed by motion, after the
-        first ``skip`` s, with a non-zero reference (bool, shape (n,)). Needs a reference."""
-        return self.observable & (self.trial.time - self.trial.time[0] >= skip) & (self.reference != 0)
+        first ``skip`` s, with a non-zero reference (bool, shape (n,)). Needs a reference.
+
+        Taken in blocks of :data:`BLOCK` samples: no temporary as long as the trial."""
+        t, reference, observable = self.trial.time, self.reference, self.observable
+        use = np.empty(t.size, dtype=bool)
+        for at in range(0, t.size, BLOCK):
+            part = slice(at, at + BLOCK)
+            use[part] = observable[part] & (t[part] - t[0] >= skip) & (reference[part] != 0)
+        return use
 
     def reference_error(self, *, skip: float = REFERENCE_SKIP_S) -> dict | None:
         """Relative error against the reference stiffness, over :meth:`reference_samples`.
@@ -256,10 +266,21 @@ class StiffnessResult:
         use = self.reference_samples(skip=skip)
         if not np.any(use):
             return {"median": None, "p90": None, "coverage": None, "n": 0}
-        rel = np.abs(self.stiffness[use] - self.reference[use]) / np.abs(self.reference[use])
-        inside = (self.stiffness_lo[use] <= self.reference[use]) & (self.reference[use] <= self.stiffness_hi[use])
-        return {"median": float(np.median(rel)), "p90": float(np.percentile(rel, 90)),
-                "coverage": float(np.mean(inside)), "n": int(use.sum())}
+        # in place where it can be: on a long trial each temporary is as long as the trial
+        reference = self.reference[use]
+        inside = self.stiffness_lo[use] <= reference
+        inside &= reference <= self.stiffness_hi[use]
+        coverage = float(np.mean(inside))
+        del inside
+        rel = self.stiffness[use]
+        rel -= reference
+        np.abs(rel, out=rel)
+        rel /= np.abs(reference, out=reference)
+        del reference
+        # both partition rel in place: the same order statistics as on a copy, without the copy
+        median = float(np.median(rel, overwrite_input=True))
+        return {"median": median, "p90": float(np.percentile(rel, 90, overwrite_input=True)),
+                "coverage": coverage, "n": int(use.sum())}
 
     def details(self) -> dict:
         """The ``details`` of ``summary.json``: what was derived from the data (JSON-ready)."""
@@ -293,13 +314,14 @@ class StiffnessResult:
             Smallest and largest estimate, N·m/rad (N/m).
         """
         obs = informed_samples(self.observable)
-        stiffness = self.stiffness[obs]
+        # no copy of the informed samples for their extremes; each median partitions its own copy
+        # in place (the same value as on a copy of it)
+        low = float(np.min(self.stiffness, where=obs, initial=np.inf))
+        high = float(np.max(self.stiffness, where=obs, initial=-np.inf))
         if self.trial_level is not None and np.isfinite(self.trial_level.median_stiffness.lo):
-            median = self.trial_level.median_stiffness
-        else:
-            median = Interval(float(np.median(stiffness)), float(np.median(self.stiffness_lo[obs])),
-                              float(np.median(self.stiffness_hi[obs])))
-        return median, float(np.min(stiffness)), float(np.max(stiffness))
+            return self.trial_level.median_stiffness, low, high
+        return Interval(*(float(np.median(x[obs], overwrite_input=True))
+                          for x in (self.stiffness, self.stiffness_lo, self.stiffness_hi))), low, high
 
     def summary(self) -> dict:
         """The content of ``summary.json`` (docs/interface.md section 4), JSON-ready."""

@@ -272,7 +272,7 @@ def shade_false(ax, time: np.ndarray, mask: np.ndarray, **kw) -> None:
 LINE_POINTS = 2000
 
 
-def envelope(t: np.ndarray, *ys: np.ndarray, points: int = LINE_POINTS):
+def envelope(t: np.ndarray, *ys: np.ndarray, points: int = LINE_POINTS, where: np.ndarray | None = None):
     """Thin time series for drawing while keeping every peak: the min and max of each bin.
 
     Parameters
@@ -281,33 +281,32 @@ def envelope(t: np.ndarray, *ys: np.ndarray, points: int = LINE_POINTS):
     *ys : ndarray, shape (n,)
     points : int
         Points per series at most (``points // 2`` bins, each giving its minimum and maximum).
+    where : ndarray of bool, shape (n,), optional
+        The samples to draw; the others count as NaN (no copy of a series is made for it).
 
     Returns
     -------
     t, *ys : ndarray
-        Unchanged when ``n <= points``; else each bin contributes (start, min) and
-        (middle, max), which draws the same band of ink as the full series at print size.
-        NaNs are ignored within a bin.
+        Unchanged when ``n <= points`` (NaN outside ``where``); else each bin contributes
+        (start, min) and (middle, max), which draws the same band of ink as the full series at
+        print size. NaNs are ignored within a bin.
     """
     t = np.asarray(t, float)
     n = t.size
     if n <= points:
-        return (t, *(np.asarray(y, float) for y in ys))
+        return (t, *(_blank(y, where) for y in ys))
     starts = np.linspace(0, n, points // 2 + 1).astype(int)[:-1]
     mids = np.minimum((starts + np.append(starts[1:], n)) // 2, n - 1)
     t_out = np.column_stack([t[starts], t[mids]]).ravel()
-    out = []
-    for y in ys:
-        y = np.asarray(y, float)
-        with np.errstate(invalid="ignore"):
-            lo = np.fmin.reduceat(y, starts)
-            hi = np.fmax.reduceat(y, starts)
-        out.append(np.column_stack([lo, hi]).ravel())
+    out = [np.column_stack([binned(np.fmin, y, starts, where), binned(np.fmax, y, starts, where)]).ravel()
+           for y in ys]
     return (t_out, *out)
 
 
-def envelope_band(t: np.ndarray, lo: np.ndarray, hi: np.ndarray, points: int = LINE_POINTS):
-    """Thin a band (``fill_between``) for drawing: the lowest ``lo`` and highest ``hi`` per bin.
+def envelope_band(t: np.ndarray, lo: np.ndarray, hi: np.ndarray, points: int = LINE_POINTS,
+                  where: np.ndarray | None = None):
+    """Thin a band (``fill_between``) for drawing: the lowest ``lo`` and highest ``hi`` per bin
+    (samples outside ``where``, when given, counted as NaN).
 
     Returns
     -------
@@ -315,9 +314,49 @@ def envelope_band(t: np.ndarray, lo: np.ndarray, hi: np.ndarray, points: int = L
     """
     t = np.asarray(t, float)
     if t.size <= points:
-        return t, np.asarray(lo, float), np.asarray(hi, float)
+        return t, _blank(lo, where), _blank(hi, where)
     starts = np.linspace(0, t.size, points + 1).astype(int)[:-1]
-    return t[starts], np.fmin.reduceat(np.asarray(lo, float), starts), np.fmax.reduceat(np.asarray(hi, float), starts)
+    return t[starts], binned(np.fmin, lo, starts, where), binned(np.fmax, hi, starts, where)
+
+
+#: Samples a binned reduction takes at once (see :func:`binned`).
+BIN_BLOCK = 1 << 18
+
+
+def _blank(y: np.ndarray, where: np.ndarray | None) -> np.ndarray:
+    y = np.asarray(y, float)
+    return y if where is None else np.where(where, y, np.nan)
+
+
+def binned(reduce, y: np.ndarray, starts: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+    """``reduce.reduceat(y, starts)`` with ``y`` NaN outside ``where``, NaNs of a bin ignored by
+    ``np.fmin``/``np.fmax`` (a bin of NaNs gives NaN): taken over blocks of whole bins of about
+    :data:`BIN_BLOCK` samples, so no masked copy of a long series exists at once.
+
+    Parameters
+    ----------
+    reduce : numpy ufunc
+    y : ndarray, shape (n,)
+    starts : ndarray of int, shape (m,)
+        First sample of every bin, increasing from 0.
+    where : ndarray of bool, shape (n,), optional
+
+    Returns
+    -------
+    ndarray, shape (m,)
+    """
+    y = np.asarray(y, float)
+    out = np.empty(len(starts))
+    ends = np.append(starts[1:], y.size)
+    first = 0
+    with np.errstate(invalid="ignore"):
+        while first < len(starts):
+            last = max(int(np.searchsorted(starts, starts[first] + BIN_BLOCK)), first + 1)
+            lo, hi = starts[first], ends[last - 1]
+            part = y[lo:hi] if where is None else np.where(where[lo:hi], y[lo:hi], np.nan)
+            out[first:last] = reduce.reduceat(part, starts[first:last] - lo)
+            first = last
+    return out
 
 
 def is_constant(x: np.ndarray) -> bool:

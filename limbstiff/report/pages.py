@@ -213,35 +213,40 @@ def reference_page(result):
     # the estimate against the reference over time is on pages 1 and 2 already
     gs = grid(fig, 2, 2, height_ratios=[1.0, 0.8], hspace=0.3, wspace=0.3)
     ax1 = fig.add_subplot(gs[0, :])
-    safe = np.abs(ref)                      # in place below: a long trial's arrays are large
-    safe[safe == 0] = np.nan
+    err = result.reference_error()          # before rel and width: its temporaries not on top of them
+    use = result.reference_samples()
+    scale = np.abs(ref)                     # in place below: a long trial's arrays are large
+    scale[scale == 0] = np.nan
+    np.divide(100, scale, out=scale)        # 100/|ref|; its half is exactly 50/|ref|
     rel = result.stiffness - ref
-    rel *= 100 / safe
+    rel *= scale
     width = result.stiffness_hi - result.stiffness_lo
-    width *= 50 / safe
-    del safe
+    width *= scale
+    width *= 0.5
+    del scale
     shade_false(ax1, t, result.observable)
     ax1.fill_between(*envelope_band(t, -width, width), color="C0", alpha=0.25, lw=0,
                      label=f"half-width of the {100 * result.ci_level:.0f} % band")
     ax1.plot(*envelope(t, rel), lw=0.7, color="C3", label="(estimate - reference) / reference")
     ax1.axhline(0, color="k", lw=0.6)
     ax1.axvspan(t[0], t[0] + REFERENCE_SKIP_S, color="C1", alpha=0.12, lw=0, label="left out (first 2 s)")
-    use = result.reference_samples()
     shown = np.flatnonzero(use)
     shown = shown[::max(1, shown.size // LIMIT_VALUES)]
     limits = robust_limits(np.concatenate([rel[shown], width[shown], -width[shown]]) if shown.size else rel, pad=0.3)
+    del width
     if limits is not None:
         ax1.set_ylim(*limits)
     ax1.set_ylabel("relative error [%]")
     ax1.set_xlabel("time [s]")
     ax1.set_xlim(t[0], t[-1])
     ax1.legend(loc="upper right", ncols=2)
-    err = result.reference_error()
     ax2 = fig.add_subplot(gs[1, 0])
     ax3 = fig.add_subplot(gs[1, 1])
     good = use & np.isfinite(rel)
+    drawn = rel[good]
+    del rel                                 # the histogram's temporaries not on top of it
     if good.any():
-        ax2.hist(np.abs(rel[good]), bins=40, color="C3", alpha=0.8, histtype="stepfilled")
+        ax2.hist(np.abs(drawn, out=drawn), bins=40, color="C3", alpha=0.8, histtype="stepfilled")
         ax2.set_xlabel("|relative error| [%]")
         ax2.set_ylabel("samples")
         if err and err["median"] is not None:

@@ -114,11 +114,9 @@ def _per_sample(ax, result) -> list[np.ndarray]:
         use[:edge] = use[use.size - edge:] = False
     if not use.any():
         use[:] = True                               # nothing informed: draw it all, all shaded grey
-    stiffness, lo, hi = (np.where(use, x, np.nan) for x in (result.stiffness, result.stiffness_lo,
-                                                            result.stiffness_hi))
-    ax.fill_between(*envelope_band(t, lo, hi), color="C0", alpha=0.3, lw=0,
-                    label=f"{100 * result.ci_level:.0f} % band")
-    ax.plot(*envelope(t, stiffness), lw=0.8, color="C0", label="estimate")
+    ax.fill_between(*envelope_band(t, result.stiffness_lo, result.stiffness_hi, where=use), color="C0", alpha=0.3,
+                    lw=0, label=f"{100 * result.ci_level:.0f} % band")
+    ax.plot(*envelope(t, result.stiffness, where=use), lw=0.8, color="C0", label="estimate")
     obs = np.flatnonzero(use)
     obs = obs[::max(1, obs.size // LIMIT_VALUES)]
     return [result.stiffness[obs], result.stiffness_lo[obs], result.stiffness_hi[obs]]
