@@ -108,10 +108,17 @@ def _data_rows(raw: bytes, body: _Body | None, rows: list, skipped: int):
         numbers = [n for n, _ in rows]
         lines = [line for _, line in rows]
         return numbers, lambda: io.StringIO("\n".join(lines))
-    # the rows straight from the file's bytes: no list of lines, no second copy as text
+    # the rows straight from the file's bytes: no list of lines, no second copy as text, and no
+    # copy of the bytes either (a BytesIO shares the bytes object it starts from; it is read on
+    # from the first data row)
     start = body.offsets[skipped]
     numbers = range(rows[0][0], rows[0][0] + body.rows - skipped)
-    return numbers, lambda: io.BytesIO(raw[start:])
+
+    def source():
+        rows_ = io.BytesIO(raw)
+        rows_.seek(start)
+        return rows_
+    return numbers, source
 
 
 def _ignored(headers: list[str], columns: dict[str, ColumnSpec]) -> list[str]:
@@ -157,7 +164,7 @@ def _decode(where: str, raw: bytes, encoding: str = "auto") -> tuple[str, list[s
                          f"{'Windows-1252' if fallback == 'cp1252' else 'Latin-1'}; set [format] encoding in "
                          "a protocol if that is wrong")
     binary_kind(where, raw if encoding == "auto" else b"", text)
-    if not text.strip():
+    if not text or text.isspace():      # text.strip() would copy a long file's text to say so
         raise TrialError(where, "empty file")
     return text, notes
 
