@@ -154,3 +154,29 @@ def test_cli_effect_option(tmp_path, reflex_elbow):
     assert Protocol().override(effects=("reflex",)) == Protocol(effects="reflex")
     bad = CliRunner().invoke(main, ["analyze", str(path), "--effect", "backlash"])
     assert bad.exit_code == 2 and "backlash" in bad.output
+
+
+@pytest.mark.parametrize("effect", [None, "reflex"])
+def test_the_screened_profile_keeps_the_exhaustive_best_shape(effect):
+    # the screen (every shape's torque at a quarter or an eighth of the rate) only decides which shapes
+    # are evaluated at the full rate: the best of all of them is among those, so the profile is the
+    # exhaustive one to the bit
+    import dataclasses
+    from limbstiff.effects import in_model
+    from limbstiff.effects.channels import Channels
+    from limbstiff.mechanics.identification import mechanics_problem
+    trial = simulate("elbow", seed=5, params={"duration": 12}, effect=effect)
+    result = analyze(trial, seed=0)
+    ch = Channels.before_analysis(trial, result.filtered)
+    problem, _ = mechanics_problem(result.filtered, given=None)
+    noise = result.identification.noise_levels
+    effect_ = in_model.CANDIDATES["reflex"]
+    shapes = effect_.grid(in_model.Scales.of([ch]))
+    kept = in_model._screened(ch, effect_, shapes, problem, noise.logs())
+    assert len(kept) < len(shapes) / 4
+    idx, logs = problem.steps.index, noise.logs()
+    exhaustive = [in_model._shape_loglik(problem, logs, effect_.evaluate(ch, s).regressors[0][idx]) for s in shapes]
+    assert shapes[int(np.argmax(exhaustive))] in kept
+    coarse = ch.every(4, 1)
+    assert coarse.fs == ch.fs / 4 and np.array_equal(coarse.velocity, ch.velocity[1::4])
+    assert dataclasses.replace(coarse.filtered.chain, fs=ch.fs) == ch.chain

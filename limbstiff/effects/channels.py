@@ -186,6 +186,19 @@ class Channels:
         return 4 if self.identified else 2
 
 
+    def every(self, step: int, offset: int = 0) -> "Channels":
+        """The channels at every ``step``-th sample from ``offset``, filtered signals and chain at the
+        lower rate: a cheap, approximate look at an effect's torque (a screen of its shapes)."""
+        rows = slice(offset, None, step)
+        f = self.filtered
+        arrays = ("angle", "velocity", "acceleration", "jerk", "torque", "torque_rate")
+        filtered = replace(f, sample_period=f.sample_period * step, chain=replace(f.chain, fs=f.chain.fs / step),
+                           **{name: getattr(f, name)[rows] for name in arrays})
+        own = ("time", "angle", "velocity", "acceleration", "torque", "raw_angle", "raw_torque", "stiffness",
+               "observable")
+        return replace(self, filtered=filtered,
+                       **{name: getattr(self, name)[rows] for name in own if getattr(self, name) is not None})
+
     @classmethod
     def before_analysis(cls, trial: Trial, filtered: Filtered) -> "Channels":
         """The channels an analysis puts effects in its model from: the filtered signals of an
