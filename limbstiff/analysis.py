@@ -212,12 +212,13 @@ def _reflex_shift(probe: ShapeProfile | None, estimate: estimators.Estimate, ide
     limb correction is not in the sensitivity)."""
     if probe is None or estimate.sensitivity is None or len(estimate.sensitivity) < 3:
         return None
-    half = float(stats.norm.ppf(0.5 + level / 2)) * np.sqrt(
-        np.maximum(estimate.variance_with(ident.coefficient_covariance), 0.0))
-    return reflex_shift(probe, sensitivity=estimate.sensitivity[[0, 1, -1]],
+    half = np.maximum(estimate.variance_with(ident.coefficient_covariance), 0.0)
+    np.sqrt(half, out=half)
+    half *= float(stats.norm.ppf(0.5 + level / 2))
+    rows = estimate.sensitivity
+    return reflex_shift(probe, sensitivity=(rows[0], rows[1], rows[-1]),
                         intervals=None if ident.given else (ident.inertia, ident.damping),
-                        stiffness=estimate.stiffness, lo=estimate.stiffness - half, hi=estimate.stiffness + half,
-                        informed=observable)
+                        stiffness=estimate.stiffness, half_width=half, informed=observable)
 
 
 def _filtered_and_coupling(trial: Trial, protocol: Protocol, prepared: scheduled.ScheduleInput | None = None):

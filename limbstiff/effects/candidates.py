@@ -163,8 +163,17 @@ def _backlash(ch, x, sh):
 def _reflex(ch, sh):
     """direction·[direction·ẏ(t − δ)]₊ through the activation dynamics, rad/s, shape (n,)."""
     s = sh["direction"]
-    vd = delay_signal(ch.time, ch.velocity, sh["delay"], before=0.0)
-    return _activation(s * np.maximum(s * vd, 0.0), ch.fs, sh["activation_hz"])
+    return _activation(s * np.maximum(s * _delayed_velocity(ch, sh["delay"]), 0.0), ch.fs, sh["activation_hz"])
+
+
+def _delayed_velocity(ch, delay: float) -> np.ndarray:
+    """ẏ(t − δ), kept on ``ch`` for the last δ asked: the reflex grid runs delay by delay (ten
+    shapes each), and one array, not thirteen, stays in memory."""
+    kept = ch.__dict__.get("_delayed_velocity")
+    if kept is None or kept[0] != delay:
+        kept = (delay, delay_signal(ch.time, ch.velocity, delay, before=0.0))
+        object.__setattr__(ch, "_delayed_velocity", kept)
+    return kept[1]
 
 
 REFLEX_DELAYS_S = tuple(np.round(np.arange(0.020, 0.0801, 0.005), 3))

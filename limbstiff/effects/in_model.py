@@ -210,20 +210,20 @@ def probe_effect(trial: Trial, filtered: Filtered, name: str, *, noise: NoiseLev
     return profile_effect(Channels.before_analysis(trial, filtered), name, problem, noise)
 
 
-def reflex_shift(probe: ShapeProfile, *, sensitivity: np.ndarray, intervals,
-                 stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, informed: np.ndarray) -> ReflexShift:
+def reflex_shift(probe: ShapeProfile, *, sensitivity, intervals,
+                 stiffness: np.ndarray, half_width: np.ndarray, informed: np.ndarray) -> ReflexShift:
     """What the probed effect would change, for the ``reflex`` check.
 
     Parameters
     ----------
     probe : ShapeProfile
         :func:`probe_effect`'s outcome.
-    sensitivity : ndarray, shape (3, n)
+    sensitivity : sequence of three ndarray, shape (n,)
         ∂σ̂/∂m, ∂σ̂/∂b and ∂σ̂/∂a for the probe's column (the estimate is affine in them).
     intervals : (Interval, Interval) or None
         Their intervals when identified (None when given: they do not move).
-    stiffness, lo, hi : ndarray, shape (n,)
-        The analysis's stiffness and band, N·m/rad.
+    stiffness, half_width : ndarray, shape (n,)
+        The analysis's stiffness and its band's half-width, N·m/rad.
     informed : ndarray of bool, shape (n,)
 
     Returns
@@ -236,11 +236,13 @@ def reflex_shift(probe: ShapeProfile, *, sensitivity: np.ndarray, intervals,
     delta = np.concatenate([coef[:2] - probe.without[:2] if intervals is not None else np.zeros(2), coef[-1:]])
     if intervals is not None:
         delta[:2] = [0.0 if iv.is_fixed else d for iv, d in zip(intervals, delta[:2])]
-    change = delta @ sensitivity[:3]
-    where = informed if np.any(informed) else np.ones(len(stiffness), dtype=bool)
+    where = informed if np.any(informed) else slice(None)
+    change = delta[0] * sensitivity[0][where]
+    for d, row in zip(delta[1:], sensitivity[1:3]):
+        change += d * row[where]
     centre = float(np.median(stiffness[where]))
-    relative = float(np.median(change[where])) / centre if centre else float("nan")
-    band = float(np.median((hi - lo)[where])) / 2 / abs(centre) if centre else float("nan")
+    relative = float(np.median(change)) / centre if centre else float("nan")
+    band = float(np.median(half_width[where])) / abs(centre) if centre else float("nan")
     moved = []
     if intervals is not None:
         moved = [MechanicsMove(name, iv.median, float(iv.median + d), not iv.lo <= iv.median + d <= iv.hi)

@@ -56,23 +56,26 @@ def course_deviations(steps: ModelSteps, noise: NoiseLevels, *, draws: int, rng:
     for first in range(0, draws, block):
         k = min(block, draws - first)
         start = np.asarray(steps.initial_mean) + rng.standard_normal((k, 2)) @ chol.T
-        noise_draws = rng.standard_normal((4, k, n))
-        noise_draws *= sd[:, None, None]
-        w_k, w_c, w_s, v = noise_draws           # views; summed in place below (a long trial's n is large)
-        w_k[:, 0] = w_c[:, 0] = w_s[:, 0] = 0.0
+        # the four noises drawn one after the other (the same numbers as one (4, k, n) draw), each
+        # summed in place and let go as soon as it is used: a long trial's n is large
+        w_k, w_c = rng.standard_normal((k, n)) * sd[0], rng.standard_normal((k, n)) * sd[1]
+        w_k[:, 0] = w_c[:, 0] = 0.0
         stiffness = np.add(w_k, w_c, out=w_k)
         np.cumsum(stiffness, axis=1, out=stiffness)
         stiffness += start[:, 1:]
-        change = w_s                              # change[i] = σ[i−1]·Δy[i] + g[i]·w_c[i] + w_s[i]
+        change = rng.standard_normal((k, n)) * sd[2]     # w_s; then σ[i−1]·Δy[i] + g[i]·w_c[i] + w_s[i]
+        change[:, 0] = 0.0
         change[:, 1:] += stiffness[:, :-1] * steps.increments[1:]
         change[:, 1:] += steps.deflection[1:] * w_c[:, 1:]
+        del w_c
         measured = np.cumsum(change, axis=1, out=change)
         measured += start[:, :1]
-        measured += v
+        measured += rng.standard_normal((k, n)) * sd[3]
         for j in range(k):
             smoothed = kalman_smoother(steps.increments, measured[j], noise, step=dt, deflection=steps.deflection,
                                        initial_mean=steps.initial_mean, initial_cov=steps.initial_cov,
                                        loglik=False)
-            error = stiffness[j] - smoothed.mean[:, 1]
+            error = np.subtract(stiffness[j], smoothed.mean[:, 1], out=stiffness[j])
+            del smoothed
             out[first + j] = (at_steps(error) if aligned else error)[keep]
     return out
