@@ -180,3 +180,31 @@ def test_the_screened_profile_keeps_the_exhaustive_best_shape(effect):
     coarse = ch.every(4, 1)
     assert coarse.fs == ch.fs / 4 and np.array_equal(coarse.velocity, ch.velocity[1::4])
     assert dataclasses.replace(coarse.filtered.chain, fs=ch.fs) == ch.chain
+
+
+def test_a_long_trials_shapes_are_screened_around_the_models_blocks():
+    # a long ankle (corner ~64 Hz: no coarser rate qualifies) is identified on six blocks spread
+    # over it; its shapes are screened on the samples near them only, and the exhaustive best shape
+    # survives the screen (measured on 15–30 min ankles, elbows and wrists with and without a
+    # reflex: the same profile, 5–8× cheaper on the ankles)
+    from limbstiff.effects import in_model
+    from limbstiff.effects.channels import Channels
+    from limbstiff.filtered import filter_trial
+    from limbstiff.mechanics.identification import mechanics_problem
+    from limbstiff.mechanics.likelihood import kalman_mechanics
+    from limbstiff.protocol import Protocol
+    trial = simulate("ankle", seed=4, params={"duration": 240.0}, effect="reflex")
+    filtered = filter_trial(trial, Protocol())
+    problem, guess = mechanics_problem(filtered)
+    logs = kalman_mechanics(problem, guess=guess).noise.logs()
+    ch = Channels.before_analysis(trial, filtered)
+    rows = in_model._around_blocks(problem, ch)
+    assert rows is not None and len(rows) < ch.n / 2
+    assert np.all(np.isin(problem.steps.index, rows))
+    effect = in_model.CANDIDATES["reflex"]
+    shapes = effect.grid(in_model.Scales.of([ch]))
+    kept = in_model._screened(ch, effect, shapes, problem, logs)
+    assert len(kept) < len(shapes) / 4
+    idx = problem.steps.index
+    exhaustive = [in_model._shape_loglik(problem, logs, effect.evaluate(ch, s).regressors[0][idx]) for s in shapes]
+    assert shapes[int(np.argmax(exhaustive))] in kept

@@ -202,7 +202,11 @@ class Channels:
     def every(self, step: int, offset: int = 0) -> "Channels":
         """The channels at every ``step``-th sample from ``offset``, filtered signals and chain at the
         lower rate: a cheap, approximate look at an effect's torque (a screen of its shapes)."""
-        rows = slice(offset, None, step)
+        return self.rows(slice(offset, None, step), step)
+
+    def rows(self, rows, step: int = 1) -> "Channels":
+        """The channels at ``rows`` (a slice, or sample indices (k,)), sampled ``step`` times more
+        coarsely: a cheap, approximate look at an effect's torque (a screen of its shapes)."""
         f = self.filtered
         arrays = ("angle", "velocity", "acceleration", "jerk", "torque", "torque_rate")
         filtered = replace(f, sample_period=f.sample_period * step, chain=replace(f.chain, fs=f.chain.fs / step),

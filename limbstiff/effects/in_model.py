@@ -45,6 +45,10 @@ SCREEN_RATE = 8.0
 #: log-likelihoods off by at most 3 % of that lead (beyond a common offset), the best shape always
 #: the screen's best, 1–13 of the 130 reflex shapes evaluated at the full rate.
 SCREEN_SHARE = 0.2
+#: A long trial's shapes are screened on the samples this close to the model's blocks, s: longer
+#: than the reflex's delays (≤ 80 ms), its activation's time constants (≤ 0.12 s) and the low-pass
+#: filters' transients at the joins.
+SCREEN_MARGIN_S = 2.0
 #: The effects an analysis can hold in its model: the library's torque effects.
 IN_MODEL = tuple(name for name, e in CANDIDATES.items() if isinstance(e, TorqueEffect))
 
@@ -102,17 +106,24 @@ def _shape_loglik(problem: MechanicsProblem, logs: np.ndarray, column: np.ndarra
 def _screened(ch: Channels, effect: TorqueEffect, shapes: list, problem: MechanicsProblem,
               logs: np.ndarray) -> list:
     """The shapes worth evaluating at the full rate: those whose likelihood, with the torque
-    evaluated on every q-th sample only (:meth:`Channels.every`), is within :data:`SCREEN_SHARE`
-    of the best one's lead over the median shape. q divides the model's step and keeps the rate at least :data:`SCREEN_RATE` times
-    the low-pass corner; all shapes when no such q > 1 exists."""
+    evaluated on every q-th sample only (:meth:`Channels.every`) or, on a long trial, around the
+    model's blocks only (:func:`_around_blocks`, when fewer samples), is within :data:`SCREEN_SHARE`
+    of the best one's lead over the median shape. q divides the model's step and keeps the rate at
+    least :data:`SCREEN_RATE` times the low-pass corner; all shapes when neither screen applies."""
     idx = problem.steps.index
     spacing = int(idx[1] - idx[0]) if len(idx) > 1 else 1
     q = max((k for k in range(1, spacing + 1) if spacing % k == 0 and ch.cutoff_hz is not None
              and ch.fs / k >= SCREEN_RATE * ch.cutoff_hz), default=1)
-    if q == 1:
+    blocks = _around_blocks(problem, ch)
+    if blocks is not None and q * len(blocks) >= ch.n:
+        blocks = None                   # every q-th sample is the cheaper screen
+    if q == 1 and blocks is None:
         return list(shapes)
-    offset = int(idx[0] % q)
-    coarse, at = ch.every(q, offset), (idx - offset) // q
+    if blocks is not None:
+        coarse, at = ch.rows(blocks), np.searchsorted(blocks, idx)
+    else:
+        offset = int(idx[0] % q)
+        coarse, at = ch.every(q, offset), (idx - offset) // q
     logliks = [_shape_loglik(problem, logs, effect.evaluate(coarse, shape).regressors[0][at]) for shape in shapes]
     valid = [v for v in logliks if v is not None]
     if not valid:
@@ -120,6 +131,19 @@ def _screened(ch: Channels, effect: TorqueEffect, shapes: list, problem: Mechani
     top = max(valid)
     margin = SCREEN_SHARE * (top - float(np.median(valid)))
     return [shape for shape, v in zip(shapes, logliks) if v is not None and v >= top - margin]
+
+
+def _around_blocks(problem: MechanicsProblem, ch: Channels) -> np.ndarray | None:
+    """The samples within :data:`SCREEN_MARGIN_S` of the model's blocks (a long trial is identified
+    on a few blocks spread over it), when they are less than half the trial: there the shapes are
+    screened on them alone (the joins' transients die out within the margin); None otherwise."""
+    idx, restart = problem.steps.index, problem.steps.restart
+    firsts = np.flatnonzero(restart | (np.arange(len(idx)) == 0))
+    lasts = np.append(firsts[1:] - 1, len(idx) - 1)
+    margin = int(SCREEN_MARGIN_S * ch.fs)
+    spans = [np.arange(max(idx[a] - margin, 0), min(idx[b] + margin + 1, ch.n)) for a, b in zip(firsts, lasts)]
+    rows = np.unique(np.concatenate(spans))
+    return rows if 2 * len(rows) < ch.n else None
 
 
 def profile_effect(ch: Channels, name: str, problem: MechanicsProblem, noise: NoiseLevels) -> ShapeProfile:
