@@ -195,10 +195,12 @@ def autocorr_time(chain: np.ndarray) -> np.ndarray:
     chain : ndarray, shape (n_steps, n_walkers, n_parameters)
     """
     from emcee.autocorr import AutocorrError, integrated_time
-    try:
-        return integrated_time(chain)
-    except AutocorrError as err:
-        return err.tau
+    # a walker that has not moved yet has no autocorrelation (0/0): NaN, read as "not converged"
+    with np.errstate(invalid="ignore", divide="ignore"):
+        try:
+            return integrated_time(chain)
+        except AutocorrError as err:
+            return err.tau
 
 
 def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: np.random.Generator,
