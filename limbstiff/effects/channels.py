@@ -20,6 +20,10 @@ from ..filtered import FilterChain, Filtered
 from ..trial import Trial
 
 
+#: Samples per block of :meth:`Channels.linear_part`'s sums (a few MB of temporaries).
+LINEAR_BLOCK = 65_536
+
+
 @dataclass(frozen=True)
 class Channels:
     """Filtered signals of one trial and the nominal model the stiffness analysis used.
@@ -128,26 +132,37 @@ class Channels:
     def linear_part(self, x: np.ndarray) -> np.ndarray:
         """Least-squares fit of ``x`` (n,) on 1, y, ẏ, ÿ.
 
-        Through the 4 × 4 normal equations of the columns scaled to unit norm (their Gram matrix
-        kept): no n × 4 basis is formed, which on an hour at 1 kHz took 330 MB for its QR.
+        On y, ẏ, ÿ less their means (the same fit; centred, the constant is orthogonal to them and
+        an angle's offset costs no accuracy), through their 3 × 3 normal equations scaled to unit
+        norm, block by block: no n × 4 basis is formed (its QR took 330 MB on an hour at 1 kHz).
         """
         key = "_linear_gram"
         kept = self.__dict__.get(key)
         columns = (self.angle, self.velocity, self.acceleration)
         if kept is None:
-            norms = np.array([np.sqrt(self.n)] + [max(float(np.linalg.norm(c)), 1e-300) for c in columns])
-            sums = np.array([[self.n] + [float(np.sum(c)) for c in columns]]
-                            + [[float(np.sum(a))] + [float(a @ b) for b in columns] for a in columns])
-            kept = (norms, np.linalg.pinv(sums / np.outer(norms, norms)))
+            means = np.array([np.mean(c) for c in columns])
+            gram = sum(d @ d.T for d in self._centred_blocks(columns, means))
+            norms = np.maximum(np.sqrt(np.diag(gram)), 1e-300)
+            kept = (means, norms, np.linalg.pinv(gram / np.outer(norms, norms)))
             object.__setattr__(self, key, kept)
-        norms, inverse = kept
+        means, norms, inverse = kept
         x = np.asarray(x, float)
-        projections = np.array([np.sum(x)] + [float(c @ x) for c in columns]) / norms
-        coef = inverse @ projections / norms
-        out = np.full(self.n, coef[0])
-        for c, k in zip(columns, coef[1:]):
-            out += k * c
+        level = float(np.mean(x))
+        projections = sum(d @ (x[rows] - level) for rows, d in
+                          zip(self._blocks(), self._centred_blocks(columns, means)))
+        coef = inverse @ (projections / norms) / norms
+        out = np.empty(self.n)
+        for rows, d in zip(self._blocks(), self._centred_blocks(columns, means)):
+            out[rows] = level + coef @ d
         return out
+
+    def _blocks(self):
+        return (slice(i, i + LINEAR_BLOCK) for i in range(0, self.n, LINEAR_BLOCK))
+
+    def _centred_blocks(self, columns, means):
+        """The columns less ``means``, (3, block) at a time."""
+        for rows in self._blocks():
+            yield np.vstack([c[rows] for c in columns]) - means[:, None]
 
     def differentiate(self, x: np.ndarray, order: int = 2) -> np.ndarray:
         """``x`` filtered and differentiated like the angle: shape (order + 1, n)."""

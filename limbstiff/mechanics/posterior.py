@@ -38,6 +38,9 @@ N_WALKERS = 8
 START_MARGIN = 0.1
 #: Posterior draws kept for the bands and the draws file.
 N_DRAWS = 2000
+#: Steps the chain keeps after its burn-in, at least: every one of the :data:`N_DRAWS` draws from
+#: a state of its own (the walkers' states of these steps).
+KEPT_STEPS = -(-N_DRAWS // N_WALKERS)
 PARAMETERS = ("inertia", "damping", "log_measurement", "log_torque_walk", "log_stiffness_walk", "log_coupled_walk")
 
 
@@ -76,7 +79,8 @@ class McmcDiagnostics:
     @property
     def chain_in_autocorr_times(self) -> float:
         """Chain length over the longest autocorrelation time (≥ :data:`MIN_TAU_MULTIPLE` wanted)."""
-        return self.n_steps / max(self.autocorr_time.values())
+        longest = np.max(list(self.autocorr_time.values()))      # NaN when a time is undefined
+        return float(self.n_steps / longest)
 
     def to_dict(self) -> dict:
         return {"sampler": "emcee", "n_walkers": self.n_walkers, "n_steps": self.n_steps,
@@ -234,13 +238,15 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     warnings = []
     converged = bool(steps >= MIN_TAU_MULTIPLE * np.max(tau))
     if not converged:
-        warnings.append(f"MCMC chain is only {steps / np.max(tau):.0f} autocorrelation times long "
+        length = ("an undefined number of" if not np.all(np.isfinite(tau))
+                  else f"only {steps / np.max(tau):.0f}")
+        warnings.append(f"MCMC chain is {length} autocorrelation times long "
                         f"(fewer than {MIN_TAU_MULTIPLE}); the posterior may be rough")
-    burn = int(min(steps // 2, 3 * np.max(tau)))
+    burn = burn_in(steps, tau)
     flat = sampler.get_chain(discard=burn, flat=True)
     thin = max(1, len(flat) // N_DRAWS)
-    # a chain shorter than the draws wanted: its states repeated, each with a draw of its own
-    # of the coefficients
+    # the chain holds N_DRAWS states after its burn-in (:func:`_run_chain`); were it shorter, its
+    # states would be repeated, each with a draw of its own of the coefficients
     noise = np.resize(flat[::thin][-N_DRAWS:], (N_DRAWS, flat.shape[1]))
     draws, amplitudes, why = _with_mechanics(problem, noise, inertia_prior, damping_prior, rng, given)
     warnings += why
@@ -257,11 +263,19 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     return Posterior(draws=draws, diagnostics=diag, warnings=tuple(warnings), amplitudes=amplitudes)
 
 
+def burn_in(steps: int, tau: np.ndarray) -> int:
+    """Steps discarded from the start of a chain of ``steps``: three autocorrelation times, at most
+    half the chain (half when the times are undefined)."""
+    return int(min(steps // 2, 3 * np.max(tau))) if np.all(np.isfinite(tau)) else steps // 2
+
+
 def _run_chain(problem, start, rng: np.random.Generator):
-    """emcee over the four log noise levels: :data:`ADAPT_STEPS` of differential evolution to fit
-    the independence proposal (:mod:`limbstiff.mechanics.proposal`; discarded), then the chain with
+    """emcee over the four log noise levels: :data:`ADAPT_ROUNDS` rounds of :data:`ADAPT_STEPS`
+    (differential evolution, then with the proposal fitted to the round before) to fit the
+    independence proposal (:mod:`limbstiff.mechanics.proposal`; discarded), then the chain with
     both moves, in blocks of :data:`BLOCK_STEPS` until it is :data:`MIN_TAU_MULTIPLE`
-    autocorrelation times long or :data:`MAX_STEPS` are run.
+    autocorrelation times long with :data:`KEPT_STEPS` after its burn-in, or :data:`MAX_STEPS` are
+    run; with differential evolution alone when the proposal does not fit (:data:`FALLBACK_TAU`).
 
     Returns
     -------
@@ -297,8 +311,8 @@ def _run_chain(problem, start, rng: np.random.Generator):
     de = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
     state, moves = p0, de
     random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
-    # two rounds: the first proposal, fitted to walkers still spreading out, is too narrow; the
-    # second is fitted to the faster chain the first one gives
+    # rounds: the first proposal, fitted to walkers still spreading out, is too narrow; each next
+    # one is fitted to the faster chain the one before gives
     for _ in range(ADAPT_ROUNDS):
         adapt = emcee.EnsembleSampler(N_WALKERS, len(centre), log_prob, vectorize=True, moves=moves)
         adapt.random_state = random_state
@@ -317,7 +331,8 @@ def _run_chain(problem, start, rng: np.random.Generator):
         steps += BLOCK_STEPS
         tau = autocorr_time(sampler.get_chain())
         # NaN: a walker has not moved yet, and the chain is not long enough either
-        if steps >= MIN_TAU_MULTIPLE * np.max(tau) or steps >= MAX_STEPS:
+        long_enough = steps >= MIN_TAU_MULTIPLE * np.max(tau) and steps - burn_in(steps, tau) >= KEPT_STEPS
+        if long_enough or steps >= MAX_STEPS:
             return sampler, steps, tau, share, discarded
         if share and steps == FALLBACK_STEPS and not np.max(tau) <= FALLBACK_TAU:
             # the proposal does not fit this posterior (a plateau, an L-shaped ridge): the chain
