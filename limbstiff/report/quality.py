@@ -141,7 +141,10 @@ def _mcmc_rows(result):
         return f"No MCMC was run ({why})."
     mcmc = ident.posterior.diagnostics
     rows = [("sampler", f"emcee, seed {mcmc.seed}"),
-            ("walkers × steps", f"{mcmc.n_walkers} × {mcmc.n_steps} (burn-in {mcmc.burn_in}, thin {mcmc.thin})")]
+            ("walkers × steps", f"{mcmc.n_walkers} × {mcmc.n_steps} (burn-in {mcmc.burn_in}, thin {mcmc.thin})"),
+            ("moves", (f"{100 * mcmc.independence_share:.0f} % independence t, the rest DE"
+                       if mcmc.independence_share else "differential evolution (DE)")
+             + f"; {mcmc.adaptation_steps} steps before, discarded")]
     for name, tau in mcmc.autocorr_time.items():
         short = {"log_measurement": "tau ln R", "log_torque_walk": "tau ln Q_s",
                  "log_stiffness_walk": "tau ln Q_sigma", "log_coupled_walk": "tau ln Q_c"}.get(name, f"tau {name}")
