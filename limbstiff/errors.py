@@ -36,3 +36,20 @@ class ProtocolError(LimbstiffError, ValueError):
         self.source = str(source)
         self.problem = problem
         super().__init__(f"{self.source}: {problem}")
+
+
+class StreamError(LimbstiffError):
+    """A live stream that cannot be found, read or published (``limbstiff stream``).
+
+    Parameters
+    ----------
+    source : str
+        The stream (its name or type) the problem is in.
+    problem : str
+        What is wrong and what to do, in one line.
+    """
+
+    def __init__(self, source: str, problem: str):
+        self.source = str(source)
+        self.problem = problem
+        super().__init__(f"{self.source}: {problem}")
