@@ -578,6 +578,13 @@ def _push_all(outlet, values: np.ndarray, keep: np.ndarray, t0: float, fs: float
     return sent
 
 
+def desc_metadata(metadata: Mapping[str, object]) -> dict[str, str]:
+    """The entries of ``metadata`` that can be ``desc`` children of a stream (keys that are XML
+    element names, ``channels`` excepted), values as one-line strings."""
+    return {str(key): " ".join(str(value).split()) for key, value in metadata.items()
+            if _XML_NAME.match(str(key)) and key != "channels"}
+
+
 def trial_channels(trial: Trial) -> tuple[np.ndarray, tuple[str, ...], tuple[str | None, ...]]:
     """A trial's columns as stream channels, named as :func:`~limbstiff.files.write_trial`'s CSV
     header without the time column (``angle_rad``, ``torque_Nm``…, ``stiffness_true_Nm_per_rad``
