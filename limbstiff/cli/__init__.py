@@ -19,6 +19,7 @@ COMMANDS = {
     "simulate": "Write a simulated trial (paper scenarios, human limbs, effects).",
     "calibrate": "Fit an exponential spring to force–displacement pairs (paper Sec. V).",
     "diagnose": "Find where the model misses the data, which unmodelled effect causes it, how far it shrinks.",
+    "stream": "Live stiffness of a Lab Streaming Layer stream; the recording analysed at the end.",
 }
 
 

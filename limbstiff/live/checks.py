@@ -1,0 +1,152 @@
+"""The checks a live estimate can make causally, and the verdict code it publishes.
+
+Over the last :data:`WINDOW_PERIODS` motion periods of model steps (at least :data:`WINDOW_MIN_S`):
+
+* motion — the share of samples the data inform (the band not 3× its typical width): below 50 %
+  the verdict is ``caution`` (the offline analysis warns at the same share);
+* torque explained — 1 − Σe²/Σ(z − z̄)², e the one-step prediction errors of z = f − m·ÿ − b·ẏ: the
+  offline held-out thresholds (:data:`~limbstiff.checks.verdict.HELDOUT_CAUTION`,
+  :data:`~limbstiff.checks.verdict.HELDOUT_UNRELIABLE`). A one-step prediction is easier than the
+  offline check's whole held-out periods, so this flags only what the offline check flags too;
+* noise — the standardised prediction errors are white when the model is right: their largest
+  |autocorrelation| at lags 1–10 steps above :data:`~limbstiff.checks.verdict.WHITENESS_MAX` is ``caution``;
+* tracking — a stiffness that changes faster than the live estimate follows leaves its one-step
+  prediction errors proportional to the angle's increments, e ≈ (σ − σ̂)·Δy: their least-squares
+  slope on Δy over the window, β, is what the estimate misses. |β| over the band's median
+  half-width and over :data:`TRACKING_Z` standard errors (√(ΣS·Δy²)/ΣΔy², the errors independent
+  with variance S) is ``caution``: the estimate lags and its band is too narrow there. On the
+  simulated elbow's ramp (6 → 30 N·m/rad over 14 s) β reached 1.4–1.9 half-widths at z = 2–6,
+  and stayed below 0.6 half-widths where the stiffness held still;
+* the band — median width over |median stiffness| above :data:`~limbstiff.checks.verdict.BAND_WIDTH_MAX`
+  is ``caution``, above :data:`~limbstiff.checks.verdict.BAND_ZERO_MAX` ``unreliable``; a share of
+  negative stiffness above :data:`~limbstiff.checks.verdict.NEGATIVE_SHARE_MAX` is ``unreliable``.
+
+The offline analysis run on the recording when the session ends makes every check. Pure numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
+                              NEGATIVE_SHARE_MAX, WHITENESS_MAX)
+
+#: Standard errors |β| must exceed for the tracking check (a two-sided test at 0.27 %; not fitted).
+TRACKING_Z = 3.0
+#: The window the checks look back over, in motion periods, and at least this many seconds.
+WINDOW_PERIODS, WINDOW_MIN_S = 10.0, 5.0
+#: Share of informed samples below which the verdict is ``caution`` (as the offline warning).
+MOTION_MIN = 0.5
+#: Verdict codes of the ``verdict`` channel: no estimate yet (warming up), ok, caution, unreliable.
+NO_ESTIMATE, OK, CAUTION, UNRELIABLE = -1, 0, 1, 2
+VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", OK: "ok", CAUTION: "caution", UNRELIABLE: "unreliable"}
+LAGS = 10
+
+
+@dataclass(frozen=True)
+class LiveChecks:
+    """The live checks over the last window.
+
+    Parameters
+    ----------
+    motion : float
+        Share of the window's samples informed by the data.
+    explained : float
+        Share of z's variance the one-step prediction explains (NaN without steps).
+    tracking : float
+        β over the band's median half-width (NaN without steps).
+    whiteness : float
+        Largest |autocorrelation| of the standardised prediction errors, lags 1–10 steps.
+    band_width : float
+        Median band width over |median stiffness|.
+    negative_share : float
+        Share of informed samples with a negative stiffness.
+    verdict : int
+        :data:`OK`, :data:`CAUTION` or :data:`UNRELIABLE`.
+    failed : tuple of str
+        The names of the failed checks.
+    """
+
+    motion: float
+    explained: float
+    tracking: float
+    whiteness: float
+    band_width: float
+    negative_share: float
+    verdict: int
+    failed: tuple[str, ...]
+
+
+def _whiteness(standardised: np.ndarray) -> float:
+    x = standardised - standardised.mean()
+    denom = float(x @ x)
+    if len(x) <= 2 * LAGS or denom <= 0:
+        return float("nan")
+    return float(max(abs(x[:-k] @ x[k:]) / denom for k in range(1, LAGS + 1)))
+
+
+def _tracking(innovation, innovation_variance, angle, half_width) -> tuple[float, float]:
+    """β / half-width and β's z (NaN when the window has too few steps or no motion)."""
+    if len(angle) <= 2 * LAGS or not half_width > 0:
+        return float("nan"), float("nan")
+    d = np.diff(angle)
+    dd = float(d @ d)
+    if dd <= 0:
+        return float("nan"), float("nan")
+    beta = float(innovation[1:] @ d) / dd
+    se = float(np.sqrt(innovation_variance[1:] @ (d * d))) / dd
+    return abs(beta) / half_width, abs(beta) / se if se > 0 else float("inf")
+
+
+def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observable: np.ndarray,
+                innovation: np.ndarray, innovation_variance: np.ndarray, measured: np.ndarray,
+                angle: np.ndarray) -> LiveChecks:
+    """The checks over one window.
+
+    Parameters
+    ----------
+    stiffness, lo, hi : ndarray, shape (n,), N·m/rad (N/m)
+        The live estimate at the window's samples.
+    observable : ndarray of bool, shape (n,)
+    innovation, innovation_variance, measured, angle : ndarray, shape (k,)
+        At the window's model steps, in order: e, S, z and y (N·m, (N·m)², N·m, rad).
+
+    Returns
+    -------
+    LiveChecks
+    """
+    ok = np.isfinite(stiffness)
+    motion = float(np.mean(observable & ok)) if len(ok) else 0.0
+    informed = observable & ok
+    pick = informed if informed.any() else ok
+    median = float(np.median(stiffness[pick])) if pick.any() else float("nan")
+    width = float(np.median(hi[pick] - lo[pick])) / abs(median) if pick.any() and median != 0 else float("nan")
+    negative = float(np.mean(stiffness[informed] < 0)) if informed.any() else 0.0
+    # the prediction is judged once the window holds more than 2·LAGS steps (a fresh estimate's
+    # first steps are still converging from the diffuse start)
+    spread = float(np.sum((measured - measured.mean()) ** 2)) if len(measured) > 2 * LAGS else 0.0
+    explained = 1.0 - float(innovation @ innovation) / spread if spread > 0 else float("nan")
+    white = _whiteness(innovation / np.sqrt(innovation_variance)) if len(innovation) else float("nan")
+    tracking, z = _tracking(innovation, innovation_variance, angle, 0.5 * width * abs(median))
+    severity = {}
+    if motion < MOTION_MIN:
+        severity["motion"] = CAUTION
+    if explained < HELDOUT_UNRELIABLE:
+        severity["torque_explained"] = UNRELIABLE
+    elif explained < HELDOUT_CAUTION:
+        severity["torque_explained"] = CAUTION
+    if tracking > 1.0 and z > TRACKING_Z:
+        severity["tracking"] = CAUTION
+    if white > WHITENESS_MAX:
+        severity["noise"] = CAUTION
+    if width > BAND_ZERO_MAX:
+        severity["band_width"] = UNRELIABLE
+    elif width > BAND_WIDTH_MAX:
+        severity["band_width"] = CAUTION
+    if negative > NEGATIVE_SHARE_MAX:
+        severity["negative_stiffness"] = UNRELIABLE
+    verdict = max(severity.values(), default=OK)
+    return LiveChecks(motion=motion, explained=explained, tracking=tracking, whiteness=white, band_width=width,
+                      negative_share=negative, verdict=verdict, failed=tuple(severity))

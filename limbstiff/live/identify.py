@@ -1,0 +1,141 @@
+"""What the live estimate must learn from the record so far: the corner, m and b, the noise levels.
+
+:func:`identify_live` runs the offline analysis's own steps on the samples received so far — the
+corner where the model predicts the torque best (:func:`limbstiff.analysis.filter_for_model`),
+m and b with their emcee posterior (:func:`~limbstiff.mechanics.identification.identify_mechanics`)
+— then fits the model's noise levels by maximum likelihood on the causal chain's own steps (its
+filter is causal, so its noise is coloured differently from the zero-phase chain's) and runs the
+chain over the record, so that the estimator it returns carries on from the last sample given.
+It is slow (seconds): ``limbstiff stream`` calls it in a worker process while the live estimate
+goes on with the model it has (:mod:`limbstiff.live.session`). Pure numpy/scipy: no I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..analysis import filter_for_model
+from ..estimate.kalman import data_guess, fit_noise_levels
+from ..mechanics.identification import identify_mechanics
+from ..protocol import Protocol
+from ..statespace.steps import initial_cov, model_steps
+from ..trial import Trial
+from .estimator import LiveEstimator, LiveModel
+
+#: Seconds of the most recent record the live model is identified from: m and b are constant, so
+#: ten minutes pin them down, and the cost and the data sent to the worker stop growing.
+LONGEST_RECORD_S = 600.0
+#: Share of the record's model steps at its start left out of the typical variance (the diffuse
+#: start's wide band).
+START_SHARE = 0.2
+
+
+@dataclass(frozen=True)
+class LiveIdentification:
+    """The live model identified on a record, and the estimator carried to its last sample.
+
+    Parameters
+    ----------
+    model : LiveModel
+    estimator : LiveEstimator
+        Its state is at the record's last sample: feed it the samples after that.
+    samples : int
+        Samples of the record used (the last ``samples`` of it).
+    variant : {"external", "direct"}
+    warnings : tuple of str
+        The identification's warnings (and the trial's).
+    """
+
+    model: LiveModel
+    estimator: LiveEstimator
+    samples: int
+    variant: str
+    warnings: tuple[str, ...]
+
+
+def _trial(name: str, fs: float, angle: np.ndarray, torque: np.ndarray, variant: str) -> Trial:
+    time = np.arange(len(angle)) / fs
+    key = "elastic_torque" if variant == "direct" else "torque"
+    return Trial(name=name, time=time, angle=np.asarray(angle, dtype=float), **{key: np.asarray(torque, dtype=float)})
+
+
+def _fit_noise(model: LiveModel, angle: np.ndarray, torque: np.ndarray, guess) -> LiveModel:
+    """The noise levels by maximum likelihood on the causal chain's steps over the record."""
+    rows = LiveEstimator(model).push(angle, torque).rows
+    steps = rows[np.isfinite(rows[:, 5])]
+    z, y, g = steps[:, 7], steps[:, 8], steps[:, 9]
+    increments = np.diff(y, prepend=y[0])
+    cov0 = (model.initial_cov[0], 0.0, model.initial_cov[1])
+    noise, _ = fit_noise_levels(increments, z, step=model.decimation / model.fs, deflection=g,
+                                initial_mean=(float(z[0]), 0.0), initial_cov=cov0, guess=guess,
+                                motion_frequency=model.motion_hz)
+    return replace(model, noise=noise)
+
+
+def identify_live(angle: np.ndarray, torque: np.ndarray, *, fs: float, protocol: Protocol | None = None,
+                  seed: int = 0, name: str = "live", variant: str | None = None,
+                  memory_periods: float | None = None) -> LiveIdentification:
+    """The live model from the record so far, and the estimator run over it.
+
+    Parameters
+    ----------
+    angle, torque : ndarray, shape (n,)
+        The record so far in SI units (the external torque, or the elastic one for the direct
+        variant), uniformly sampled at ``fs``; only its last :data:`LONGEST_RECORD_S` are used.
+    fs : float, Hz
+    protocol : Protocol, optional
+        Corner, m and b when it gives them, priors, ``ci_level``.
+    seed : int
+        Seed of the emcee posterior.
+    name : str
+        The trial's name in error messages.
+    variant : {"external", "direct"}, optional
+        Default: the protocol's, else external.
+    memory_periods : float, optional
+        The live estimate's fading memory (:attr:`LiveModel.memory_s`) in motion periods; the noise
+        levels are fitted without it.
+
+    Returns
+    -------
+    LiveIdentification
+
+    Raises
+    ------
+    TrialError
+        When the record cannot be analysed (too short, no motion, m or b not identifiable).
+    """
+    protocol = protocol or Protocol()
+    keep = min(len(angle), int(LONGEST_RECORD_S * fs))
+    angle, torque = np.asarray(angle[-keep:], dtype=float), np.asarray(torque[-keep:], dtype=float)
+    variant = variant or ("direct" if protocol.variant == "direct" else "external")
+    trial = _trial(name, fs, angle, torque, variant)
+    filtered, _ = filter_for_model(trial, protocol)
+    cov = np.zeros((2, 2))
+    m = b = 0.0
+    warnings: tuple[str, ...] = ()
+    noise = None
+    if filtered.variant == "external":
+        ident = identify_mechanics(filtered, protocol, rng=np.random.default_rng(seed), seed=seed, where=name)
+        m, b, cov, noise, warnings = (ident.inertia.median, ident.damping.median, np.asarray(ident.covariance),
+                                      ident.noise_levels, ident.warnings)
+    p11, _, p22 = initial_cov(angle, torque)
+    model = LiveModel(fs=fs, corner_hz=filtered.cutoff_hz, motion_hz=filtered.motion_hz, noise=noise,
+                      inertia=float(m), damping=float(b), covariance=cov, initial_cov=(p11, p22),
+                      typical_variance=None, ci_level=protocol.ci_level, identified_s=keep / fs)
+    if noise is None:      # the direct variant: no identification fitted them
+        noise = data_guess(model_steps(angle, torque, sample_period=1 / fs, decimation=model.decimation, edge=0,
+                                       motion_frequency=model.motion_hz))
+        model = replace(model, noise=noise)
+    model = _fit_noise(model, angle, torque, noise)
+    if memory_periods is not None:
+        model = replace(model, memory_s=memory_periods / model.motion_hz)
+    est = LiveEstimator(model)
+    variance = est.push(angle, torque).rows[:, 4]
+    start = int(START_SHARE * len(variance))
+    finite = variance[start:][np.isfinite(variance[start:])]
+    typical = float(np.median(finite)) if finite.size else None
+    est.retuned(replace(model, typical_variance=typical))
+    return LiveIdentification(model=est.model, estimator=est, samples=keep, variant=filtered.variant,
+                              warnings=tuple(trial.warnings) + tuple(warnings))
