@@ -60,6 +60,7 @@ def test_publish_and_read_round_trip_bit_for_bit():
     assert description.fs == fs and description.channel_format == "double64"
     assert description.labels == ("angle_rad", "torque_Nm", "extra")
     assert description.units == ("rad", "Nm", None)
+    assert description.info.session_id() == "limbstiff-tests"      # tests/support/lsl_api.cfg in effect
     with lsl.StreamReader(description, recover=False) as reader:
         got, stamps, arrived = _read(reader, n=400, done=lambda: not pub.is_alive())
         assert abs(reader.clock_offset) < 1e-3          # one machine
@@ -111,6 +112,7 @@ def test_several_matches_the_newest_outlet_first():
     listed = lsl.find_streams(name=name, wait=1.0)
     assert [d.source_id for d in listed] == [f"{name}-1", f"{name}-0"]
     assert lsl.find_stream(name=name, timeout=5.0).source_id == f"{name}-1"
+    assert name in [d.name for d in lsl.find_streams(wait=0.5)]    # every stream of the session
     del outlets
 
 
@@ -181,6 +183,24 @@ def test_restarted_sender_is_recovered():
     lost_s = (second[0] - split) / fs
     print(f"restart: recovered after {lost_s:.2f} s of the new outlet's samples")
     assert np.all(np.diff(stamps) > 0)
+
+
+@needs_pylsl
+def test_lost_stream_without_recovery_is_a_one_line_stream_error():
+    name = unique_name()
+    pub = Publisher(np.ones((50, 1)), fs=100.0, labels=("x",), units=(None,), name=name, source_id=name,
+                    wait_consumer_s=5.0, linger_s=0.2)
+    pub.start()
+    received = 0
+    with lsl.StreamReader(lsl.find_stream(name=name, timeout=5.0), recover=False) as reader:
+        with pytest.raises(StreamError) as caught:
+            deadline = time.monotonic() + 5.0
+            while time.monotonic() < deadline:
+                received += reader.pull(timeout=0.1).n
+    pub.join(5)
+    assert received == 50                               # everything sent, then the loss
+    message = str(caught.value)
+    assert "\n" not in message and name in message and "was lost" in message
 
 
 def test_pylsl_missing_is_a_one_line_stream_error(monkeypatch):
