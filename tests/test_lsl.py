@@ -186,6 +186,20 @@ def test_restarted_sender_is_recovered():
 
 
 @needs_pylsl
+def test_reading_without_min_samples_as_older_pylsl():
+    name = unique_name()
+    values = np.random.default_rng(3).standard_normal((100, 2)).astype(np.float32)
+    pub = Publisher(values, fs=200.0, labels=("a", "b"), units=(None, None), name=name, source_id=name,
+                    wait_consumer_s=5.0)
+    pub.start()
+    with lsl.StreamReader(lsl.find_stream(name=name, timeout=5.0), recover=False) as reader:
+        reader._min_samples = False                     # pylsl < 1.18: no min_samples, no as_numpy
+        got, stamps, _ = _read(reader, n=100, done=lambda: not pub.is_alive())
+    pub.join(5)
+    assert np.array_equal(got, values.astype(np.float64)) and stamps.size == 100
+
+
+@needs_pylsl
 def test_lost_stream_without_recovery_is_a_one_line_stream_error():
     name = unique_name()
     pub = Publisher(np.ones((50, 1)), fs=100.0, labels=("x",), units=(None,), name=name, source_id=name,

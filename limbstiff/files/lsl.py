@@ -23,6 +23,7 @@ What liblsl does underneath:
 
 from __future__ import annotations
 
+import inspect
 import re
 import threading
 import time
@@ -289,6 +290,7 @@ class StreamReader:
             self._inlet = pylsl.StreamInlet(description.info, max_buflen=max(1, int(np.ceil(max_buffer_s))),
                                             recover=recover, processing_flags=flags)
             self._inlet.open_stream(timeout=open_timeout)
+            self._min_samples = "min_samples" in inspect.signature(self._inlet.pull_chunk).parameters
         except Exception as exc:
             self._inlet = None
             raise StreamError(self._label, f"cannot open the stream within {open_timeout:g} s "
@@ -341,12 +343,10 @@ class StreamReader:
 
     def _pull_into(self, buffer: np.ndarray, timeout: float, max_samples: int) -> np.ndarray:
         pull = self._inlet.pull_chunk
-        try:      # pylsl >= 1.18: wait for the first sample only, then drain
+        if self._min_samples:      # pylsl >= 1.18: wait for the first sample only, then drain
             _, stamps = pull(timeout=timeout, max_samples=max_samples, dest_obj=buffer,
                              min_samples=1, as_numpy=True)
             return np.asarray(stamps)
-        except TypeError:
-            pass
         deadline = time.monotonic() + timeout   # older pylsl: poll, then drain without waiting
         while not self._inlet.samples_available() and time.monotonic() < deadline:
             time.sleep(0.001)
@@ -508,10 +508,8 @@ def publish(values: np.ndarray, *, fs: float, labels: Sequence[str], units: Sequ
     labels, units : sequence, length c
         ``desc/channels/channel/label`` and ``unit`` (None: no unit element).
     name, type, source_id : str
-    wait_consumer_s : float
-        Wait up to this long for an inlet to connect before starting (then start anyway).
-    start_delay_s : float
-        Pause after the wait, before ``t0``.
+    wait_consumer_s, start_delay_s : float
+        Wait up to ``wait_consumer_s`` s for an inlet (then start anyway), then ``start_delay_s`` s.
     stop : threading.Event, optional
         Set it to stop early (checked between chunks and while waiting).
     drop : slice, optional
@@ -540,10 +538,7 @@ def publish(values: np.ndarray, *, fs: float, labels: Sequence[str], units: Sequ
     outlet = _outlet(pylsl, name=name, type=type, fs=fs, labels=labels, units=units,
                      source_id=source_id, metadata=metadata)
     try:
-        deadline = time.monotonic() + wait_consumer_s
-        while not stop.is_set() and time.monotonic() < deadline and not outlet.wait_for_consumers(
-                min(0.1, max(0.0, deadline - time.monotonic()))):
-            pass
+        _wait_for_consumer(outlet, wait_consumer_s, stop)
         if start_delay_s > 0:
             stop.wait(start_delay_s)
         t0 = pylsl.local_clock()
@@ -555,6 +550,14 @@ def publish(values: np.ndarray, *, fs: float, labels: Sequence[str], units: Sequ
         return sent
     finally:
         del outlet
+
+
+def _wait_for_consumer(outlet, seconds: float, stop: threading.Event) -> None:
+    """liblsl's ``wait_for_consumers`` in 0.1 s slices, so that ``stop`` and Ctrl-C get through."""
+    deadline = time.monotonic() + seconds
+    while not stop.is_set() and time.monotonic() < deadline:
+        if outlet.wait_for_consumers(min(0.1, max(0.0, deadline - time.monotonic()))):
+            return
 
 
 def _push_all(outlet, values: np.ndarray, keep: np.ndarray, t0: float, fs: float, chunk_s: float,
