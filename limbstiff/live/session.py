@@ -221,6 +221,8 @@ class LiveSession:
         self.pending = None
         if self.estimator is not None:
             self.estimator.reset()
+            self._window = _Window(self._window_steps())
+            self._verdict, self.events.checks = NO_ESTIMATE, None
 
     def _ask_identification(self):
         if self.pending is not None:

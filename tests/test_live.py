@@ -1,0 +1,230 @@
+"""The live (causal) estimate without a stream: the chain against the model written once, chunking,
+the session's gaps and identification failures, the live checks' error rates, the growing table."""
+
+import pickle
+from concurrent.futures import Future
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from limbstiff.errors import TrialError
+from limbstiff.files.recording import GrowingTable
+from limbstiff.live import kernel
+from limbstiff.live.checks import CAUTION, OK, TRACKING_Z, live_checks
+from limbstiff.live.estimator import LiveEstimator, LiveModel
+from limbstiff.live.session import Immediately, LiveSession, identification_due
+from limbstiff.statespace import kernels
+from limbstiff.statespace.noise import NoiseLevels
+from limbstiff.statespace.smoother import at_steps
+
+from .conftest import multisine_trial
+from .support.independent_trials import make_trial, suite
+
+FS = 500.0
+
+
+def _model(**changes):
+    base = dict(fs=FS, corner_hz=20.0, motion_hz=2.0,
+                noise=NoiseLevels(measurement=1e-4, torque_walk=1e-3, stiffness_walk=2.0, coupled_walk=0.5),
+                inertia=0.06, damping=0.45, covariance=np.array([[1e-6, 2e-7], [2e-7, 1e-4]]),
+                initial_cov=(1.0, 400.0), typical_variance=None)
+    base.update(changes)
+    return LiveModel(**base)
+
+
+def _expected(model, y, f):
+    """The chain written out with scipy and the offline filter (kernels.kalman_filter): a second,
+    independent statement of what the live kernel computes."""
+    sos = model.sos
+    zi = signal.sosfilt_zi(sos)
+    yf = signal.sosfilt(sos, y, zi=zi * y[0])[0]
+    ff = signal.sosfilt(sos, f, zi=zi * f[0])[0]
+    newest = np.arange(kernel.STENCIL - 1, len(y), model.decimation)     # the sample that completes each step
+    centre = newest - 4
+    window = np.lib.stride_tricks.sliding_window_view(yf, kernel.STENCIL)[centre - 4]
+    v = window @ kernel._FIRST * FS
+    a = window @ kernel._SECOND * FS ** 2
+    z = ff[centre] - model.inertia * a - model.damping * v
+    yc = yf[centre]
+    g = np.array([yc[i] - yc[max(0, i - model.window + 1):i + 1].mean() for i in range(len(yc))])
+    d = np.diff(yc, prepend=yc[0])
+    r, qs, qk, qc = model.noise.per_step(model.decimation / FS)
+    mean, cov, _ = kernels.kalman_filter(d, g, z, np.ones(len(z), dtype=bool), r, qs, qk, qc, float(z[0]), 0.0,
+                                         model.initial_cov[0], 0.0, model.initial_cov[1], False)
+    return newest, at_steps(mean[:, 1]), at_steps(cov[:, 2]), z
+
+
+def test_the_chain_is_the_offline_filter_on_causally_filtered_signals():
+    trial = multisine_trial(duration=6.0, fs=FS)
+    model = _model()
+    out = LiveEstimator(model).push(trial.angle, trial.torque)
+    newest, stiffness, variance, z = _expected(model, trial.angle, trial.torque)
+    # the same arithmetic in another order (three channels combined after the filter): rounding only
+    np.testing.assert_allclose(out.stiffness[newest], stiffness, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(out.rows[newest, 4], variance, rtol=1e-9)
+    np.testing.assert_allclose(out.measured[newest], z, rtol=1e-9, atol=1e-12)
+    assert np.all(np.isnan(out.stiffness[:newest[0]]))
+    # held between steps: the value of the last step
+    assert out.stiffness[newest[3] + 1] == out.stiffness[newest[3]]
+    # the band carries m and b's covariance through the courses of ÿ and ẏ: wider than the state's own
+    half = 0.5 * (out.hi - out.lo)[newest]
+    assert np.all(half >= 1.6448 * np.sqrt(variance) * (1 - 1e-12))
+
+
+def test_chunks_and_a_pickled_handover_give_the_same_estimate_to_the_bit():
+    trial = multisine_trial(duration=5.0, fs=FS)
+    model = _model(memory_s=0.5, typical_variance=0.01)
+    whole = LiveEstimator(model).push(trial.angle, trial.torque).rows
+    for size in (1, 7, 250):
+        est = LiveEstimator(model)
+        rows = np.vstack([est.push(trial.angle[i:i + size], trial.torque[i:i + size]).rows
+                          for i in range(0, len(trial.angle), size)])
+        np.testing.assert_array_equal(rows, whole)
+    est = LiveEstimator(model)
+    est.push(trial.angle[:1000], trial.torque[:1000])
+    moved = pickle.loads(pickle.dumps(est))         # what a worker process hands over
+    np.testing.assert_array_equal(moved.push(trial.angle[1000:], trial.torque[1000:]).rows, whole[1000:])
+
+
+def test_retuning_m_and_b_keeps_the_chain_and_changes_only_the_combination():
+    trial = multisine_trial(duration=4.0, fs=FS)
+    model = _model()
+    est = LiveEstimator(model)
+    est.push(trial.angle[:800], trial.torque[:800])
+    import dataclasses
+    est.retuned(dataclasses.replace(model, inertia=0.07))
+    with pytest.raises(ValueError, match="keeps the chain"):
+        est.retuned(dataclasses.replace(model, corner_hz=10.0))
+    expected = LiveEstimator(dataclasses.replace(model, inertia=0.07)).push(trial.angle, trial.torque)
+    np.testing.assert_allclose(est.push(trial.angle[800:], trial.torque[800:]).stiffness,
+                               expected.stiffness[800:], rtol=1e-9)
+
+
+def test_identification_schedule():
+    due = [identification_due(0, k, warmup_s=5.0) for k in range(6)]
+    assert due == [5.0, 10.0, 20.0, 40.0, 100.0, 160.0]
+
+
+@pytest.fixture(scope="module")
+def ramp_trial():
+    """The independent simulator's clean elbow whose stiffness ramps (not limbstiff's equations), 30 s."""
+    spec = next(s for s in suite(7100) if s.name == "clean-ramp-elbow")
+    data, _ = make_trial(spec)
+    return (data.angle_rad.to_numpy(), data.torque_Nm.to_numpy(), data.stiffness_true_Nm_per_rad.to_numpy(), 1000.0)
+
+
+def _replay(session, y, f, fs, *, times=None, chunk=10):
+    t = np.arange(len(y)) / fs if times is None else times
+    parts = [session.feed(t[i:i + chunk], y[i:i + chunk], f[i:i + chunk]) for i in range(0, len(y), chunk)]
+    return np.vstack([p.values for p in parts]), parts
+
+
+def test_a_replayed_session_follows_the_independent_ramp(ramp_trial):
+    y, f, truth, fs = ramp_trial
+    session = LiveSession(fs, Immediately())
+    values, _ = _replay(session, y, f, fs)
+    assert np.all(np.isnan(values[:5000, 0])) and np.all(values[:5000, 4] == -1)   # warm-up: said so
+    use = np.isfinite(values[:, 0])
+    use[:5000] = False
+    error = np.abs(values[use, 0] / truth[use] - 1)
+    # the issue's target (5 %): 2.7 % measured; the same trial cut to 20 s ramps faster and is 5.4 % off
+    assert np.median(error) < 0.05
+    assert [d["at_samples"] for d in session.events.identifications] == [5000, 10000, 20000]
+    assert session.events.dropped_samples == 0 and session.events.breaks == []
+
+
+def test_dropped_samples_are_bridged_and_a_long_gap_restarts(ramp_trial):
+    y, f, truth, fs = ramp_trial
+    n = 20000
+    t = np.arange(n) / fs
+    keep = np.ones(n, dtype=bool)
+    keep[8000:8020] = False            # 20 ms dropped: bridged
+    keep[11000:13000] = False          # 2 s: a break (longer than a quarter motion period)
+    session = LiveSession(fs, Immediately())
+    values, parts = _replay(session, y[:n][keep], f[:n][keep], fs, times=t[keep])
+    assert session.events.bridged_gaps == 1
+    assert session.events.dropped_samples == 20 + 2000
+    assert len(session.events.breaks) == 1
+    before, after = session.events.breaks[0]
+    assert before == pytest.approx(t[10999]) and after == pytest.approx(t[13000])
+    assert sum(len(p.breaks) for p in parts) == 1
+    after_break = np.flatnonzero(keep).searchsorted(13000)
+    assert np.all(np.isnan(values[after_break:after_break + 8, 0]))     # the chain starts again
+    assert np.all(values[after_break:after_break + 8, 4] == -1)         # and its checks
+    # the chain converges again within its memory (two motion periods; this trial moves at 0.24 Hz)
+    assert abs(values[-1, 0] / truth[n - 1] - 1) < 0.1
+
+
+class _FailingFirst(Immediately):
+    """An identifier whose first identification fails, as a record without motion would."""
+
+    def __init__(self):
+        super().__init__()
+        self.calls = 0
+
+    def submit(self, angle, torque, fs):
+        self.calls += 1
+        if self.calls == 1:
+            done = Future()
+            done.set_exception(TrialError("live", "no motion: the angle does not change"))
+            return done
+        return super().submit(angle, torque, fs)
+
+
+def test_a_failed_identification_is_reported_and_the_next_one_taken(ramp_trial):
+    y, f, _, fs = ramp_trial
+    session = LiveSession(fs, _FailingFirst())
+    values, _ = _replay(session, y[:11000], f[:11000], fs)
+    first, second = session.events.identifications
+    assert "no motion" in first["error"] and first["at_samples"] == 5000
+    assert second["at_samples"] == 10000 and second["inertia"] > 0
+    assert np.all(np.isnan(values[:10000, 0])) and np.isfinite(values[-1, 0])
+
+
+def _window(rng, k, slope_in_half_widths):
+    """A window of k steps whose innovations are white with S = 1, plus a stiffness missed by the
+    estimate of ``slope_in_half_widths`` times the band's half-width (0.05)."""
+    angle = np.cumsum(rng.normal(0, 0.01, k))
+    d = np.diff(angle, prepend=angle[0])
+    half = 0.05
+    e = rng.normal(0, 1, k) + slope_in_half_widths * half * d
+    stiffness = np.full(k, 1.0)
+    return live_checks(stiffness, stiffness - half, stiffness + half, np.ones(k, bool), e, np.ones(k),
+                       rng.normal(0, 5, k), angle)
+
+
+def test_tracking_check_error_rates():
+    rng = np.random.default_rng(38)
+    # no missed stiffness: β/se is N(0, 1), so |z| > 3 in 0.27 % of windows (and |β| must pass the
+    # half-width too); 400 windows: more than 3 false alarms would have probability < 2 % at 0.27 %
+    quiet = [_window(rng, 300, 0.0) for _ in range(400)]
+    assert sum("tracking" in c.failed for c in quiet) <= 3
+    assert all(c.verdict == OK for c in quiet if "tracking" not in c.failed)
+    # a stiffness missed by 4 half-widths with Σd² = 300·10⁻⁴: β = 0.2, se = 1/√0.03 ≈ 5.8 — not
+    # significant, so not flagged: the check waits for evidence
+    weak = [_window(rng, 300, 4.0) for _ in range(50)]
+    assert sum("tracking" in c.failed for c in weak) <= 5
+    # missed by 1000 half-widths (β = 50, z ≈ 8.7): flagged every time, as caution
+    strong = [_window(rng, 300, 1000.0) for _ in range(50)]
+    assert all("tracking" in c.failed and c.verdict == CAUTION for c in strong)
+    assert TRACKING_Z == 3.0
+
+
+def test_growing_table_is_exact_and_readable_before_it_is_closed(tmp_path):
+    import pandas as pd
+    rng = np.random.default_rng(0)
+    rows = rng.normal(size=(50, 3)) * 10.0 ** rng.integers(-12, 12, size=(50, 3))
+    table = GrowingTable(tmp_path / "rec.csv", ["time_s", "angle_rad", "torque_Nm"], units=["s", "rad", "Nm"],
+                         metadata={"stream": "x"})
+    table.append(rows[:20])
+    table.flush()
+    partial = pd.read_csv(tmp_path / "rec.csv.partial", comment="#", skiprows=[1 + 1])
+    assert len(partial) == 20
+    table.append(rows[20:])
+    path = table.close()
+    assert path == tmp_path / "rec.csv" and not (tmp_path / "rec.csv.partial").exists()
+    back = np.loadtxt(path, delimiter=",", comments="#", skiprows=3)
+    np.testing.assert_array_equal(back, rows)        # 17 significant digits: the same float64
+    with pytest.raises(ValueError, match="3 columns"):
+        GrowingTable(tmp_path / "other.csv", ["a", "b", "c"]).append(np.zeros((1, 2)))
