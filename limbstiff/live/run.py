@@ -32,8 +32,8 @@ from ..files.recording import GrowingTable
 from ..protocol import Protocol
 from ..result import software
 from .checks import VERDICT_NAMES
-from .identify import identify_live
-from .session import MEMORY_PERIODS, WARMUP_S, LiveSession
+from .identify import identify_live, refit_live
+from .session import MEMORY_PERIODS, REFIT_EVERY_S, WARMUP_S, LiveSession
 from .status import status_line
 
 LIVE_COLUMNS = ("time_s", "lsl_time_s", "stiffness", "stiffness_lo", "stiffness_hi", "observable", "verdict")
@@ -92,19 +92,32 @@ class WorkerIdentifier:
         self.options = {"memory_periods": MEMORY_PERIODS, **options}
         self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
         self.note: str | None = None
+        self.pool.submit(_warm_up)      # the worker's imports and compiled kernels, during the warm-up
 
     def submit(self, angle, torque, fs):
+        return self._submit(identify_live, angle, torque, fs=fs, **self.options)
+
+    def _submit(self, call, *args, **kwargs):
         try:
-            return self.pool.submit(identify_live, angle, torque, fs=fs, **self.options)
+            return self.pool.submit(call, *args, **kwargs)
         except (BrokenProcessPool, RuntimeError) as exc:
             self.pool.shutdown(wait=False, cancel_futures=True)
             self.pool = ThreadPoolExecutor(1)
             self.note = (f"the identification ran in a thread (no worker process: {type(exc).__name__}); "
                          "the live loop shared the processor with it")
-            return self.pool.submit(identify_live, angle, torque, fs=fs, **self.options)
+            return self.pool.submit(call, *args, **kwargs)
+
+    def refit(self, angle, torque, fs, previous):
+        return self._submit(refit_live, angle, torque, previous=previous, memory_periods=self.options["memory_periods"],
+                            variant=self.options.get("variant") or "external")
 
     def close(self):
         self.pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _warm_up() -> None:
+    from . import identify
+    del identify      # imported for its imports: the analysis and the compiled kernels
 
 
 def _headers(description: lsl.StreamDescription) -> list[str]:
@@ -332,9 +345,12 @@ def _summary(settings, description, session, stopped, latency, offsets, paths, n
         "recordings": [p.name for p in paths], "stopped": stopped, "samples": ev.samples,
         "dropped_samples": ev.dropped_samples, "bridged_gaps": ev.bridged_gaps,
         "breaks": [{"from_lsl_time_s": a, "to_lsl_time_s": b} for a, b in ev.breaks],
-        "clock_offset_s": {"start": offsets[0] if offsets else None, "end": offsets[-1] if offsets else None},
+        "clock_offset_s": {"start": _finite(offsets[0]) if offsets else None,
+                           "end": _finite(offsets[-1]) if offsets else None},
         "warmup_s": settings.warmup_s, "memory_periods": MEMORY_PERIODS,
         "identifications": [{**d, "at_s": d["at_samples"] / fs} for d in ev.identifications],
+        "noise_refits": ev.refits, "noise_refit_every_s": REFIT_EVERY_S,
+        "failed_noise_refits": [{**d, "at_s": d["at_samples"] / fs} for d in ev.failed_refits],
         "last_checks": None if checks is None else {
             "motion": checks.motion, "torque_explained": _finite(checks.explained),
             "whiteness": _finite(checks.whiteness), "band_width": _finite(checks.band_width),

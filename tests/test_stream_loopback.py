@@ -1,0 +1,142 @@
+"""``limbstiff stream`` end to end on the LSL loopback: an independent simulated trial published at
+1 kHz for 30 s, the command consuming it, a consumer of its stiffness outlet, the recording, the
+live estimate and the offline analysis at the end.
+
+The trial comes from tests/support/independent_trials.py (not limbstiff's equations). liblsl is
+configured by tests/support/lsl_api.cfg: resolution on this machine only, session limbstiff-tests.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import threading
+import time
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from .support.lsl_loopback import Publisher, unique_name, use_loopback
+
+use_loopback()          # before the first pylsl call of this process
+
+from limbstiff.cli import main  # noqa: E402
+from limbstiff.files import lsl  # noqa: E402
+
+from .support.independent_trials import make_trial, suite  # noqa: E402
+
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("pylsl") is None, reason="pylsl not installed")
+FS = 1000.0
+SECONDS = 30.0
+
+
+class _Consumer(threading.Thread):
+    """Reads the stiffness outlet until it has been silent for 3 s."""
+
+    def __init__(self, name):
+        super().__init__(daemon=True)
+        self.name_ = name
+        self.values, self.stamps, self.error = [], [], None
+
+    def run(self):
+        try:
+            description = lsl.find_stream(name=self.name_, timeout=60.0)
+            with lsl.StreamReader(description) as reader:
+                quiet_since = time.monotonic()
+                while time.monotonic() - quiet_since < 3.0:
+                    chunk = reader.pull(timeout=0.2)
+                    if chunk.n:
+                        quiet_since = time.monotonic()
+                        self.values.append(chunk.values)
+                        self.stamps.append(chunk.timestamps)
+        except Exception as exc:        # reported by the test
+            self.error = exc
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    spec = next(s for s in suite(7100) if s.name == "clean-ramp-elbow")
+    data, _ = make_trial(spec)
+    sent = data[["angle_rad", "torque_Nm", "stiffness_true_Nm_per_rad"]].to_numpy()[:int(SECONDS * FS)]
+    name, outlet = unique_name("sim"), unique_name("stiffness")
+    out = tmp_path_factory.mktemp("stream")
+    publisher = Publisher(sent, fs=FS, labels=("angle_rad", "torque_Nm", "stiffness_true_Nm_per_rad"),
+                          units=("rad", "Nm", "Nm_per_rad"), name=name, source_id=name, wait_consumer_s=60.0)
+    consumer = _Consumer(outlet)
+    publisher.start()
+    consumer.start()
+    result = CliRunner().invoke(main, ["stream", "--name", name, "--out", str(out), "--trial", "session1",
+                                       "--duration", str(SECONDS - 1.0), "--outlet", outlet, "--no-pdf", "--quiet"])
+    publisher.stop.set()
+    publisher.join(10)
+    consumer.join(20)
+    return result, sent, out, consumer
+
+
+def test_the_command_ends_with_the_recording_and_the_offline_analysis(session):
+    result, sent, out, _ = session
+    assert result.exit_code == 0, result.output
+    assert "duration 29 s reached" in result.output
+    table = np.loadtxt(out / "session1.csv", delimiter=",", comments="#", skiprows=8)
+    n = len(table)
+    assert 29000 <= n <= len(sent)
+    # the recording is what was sent: the values to the bit, the times within the dejitter's 1 ms
+    np.testing.assert_array_equal(table[:, 1:], sent[:n])
+    np.testing.assert_allclose(table[:, 0], np.arange(n) / FS, atol=1e-3)
+    summary = json.loads((out / "session1" / "summary.json").read_text())
+    truth = sent[:n, 2]
+    assert summary["verdict"] in ("ok", "caution", "unreliable")
+    assert abs(summary["stiffness"]["median"] / np.median(truth) - 1) < 0.05
+    assert (out / "session1" / "stiffness.csv").exists() and (out / "summary.csv").exists()
+
+
+def test_the_published_stiffness_follows_the_truth_and_matches_live_csv(session):
+    result, sent, out, consumer = session
+    assert consumer.error is None
+    values, stamps = np.concatenate(consumer.values), np.concatenate(consumer.stamps)
+    live = np.loadtxt(out / "session1" / "live.csv", delimiter=",", comments="#", skiprows=2)
+    # the consumer connects once the outlet exists (an outlet keeps nothing for consumers not yet
+    # there): what it received is the tail of what was written, with the input samples' time stamps
+    assert len(live) - 2000 <= len(values) <= len(live)
+    live = live[len(live) - len(values):]
+    np.testing.assert_array_equal(values, live[:, 2:])
+    np.testing.assert_allclose(stamps, live[:, 1], atol=1e-9)
+    index = np.round(live[:, 0] * FS).astype(int)
+    after = (index >= 5 * FS) & np.isfinite(values[:, 0])
+    error = np.abs(values[after, 0] / sent[index[after], 2] - 1)
+    # the issue's target: median within 5 % after the first 5 s (1.9 % on this trial in a replay)
+    # the estimate starts once the first identification is back (5 s of record plus its 2–5 s in the
+    # worker, longer on a loaded machine): at least the last 5 s of the 29 have one
+    assert after.sum() >= 5000
+    assert np.median(error) < 0.05, f"median {np.median(error):.3f} over {after.sum()} samples"
+    assert np.all(values[index < 5 * FS, 4] == -1)               # warming up, said so
+
+
+def test_stream_json_says_what_happened(session):
+    _, _, out, _ = session
+    info = json.loads((out / "session1" / "stream.json").read_text())
+    assert info["dropped_samples"] == 0 and info["breaks"] == []
+    at = [d["at_s"] for d in info["identifications"]]
+    # the first at the warm-up; the next once it is due and the previous one is back (one at a time)
+    assert round(at[0]) == 5 and at[1] >= 10 and len(at) in (2, 3)
+    assert all("error" not in d for d in info["identifications"])
+    for key in ("processing_us_per_sample", "end_to_end_ms"):
+        assert set(info["latency"][key]) >= {"median", "p99_9", "max", "chunks"}
+    assert info["stream"]["channels"] == ["angle_rad", "torque_Nm", "stiffness_true_Nm_per_rad"]
+
+
+def test_a_stream_that_is_not_there_is_one_line_and_exit_2(tmp_path):
+    result = CliRunner().invoke(main, ["stream", "--name", unique_name("absent"), "--resolve-timeout", "0.5",
+                                       "--out", str(tmp_path)])
+    assert result.exit_code == 2
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and "no LSL stream" in lines[0]
+
+
+def test_usage_errors(tmp_path):
+    result = CliRunner().invoke(main, ["stream", "--out", str(tmp_path)])
+    assert result.exit_code == 2 and "--name or --type" in result.output
+    (tmp_path / "taken.csv").write_text("x\n")
+    result = CliRunner().invoke(main, ["stream", "--name", "x", "--out", str(tmp_path), "--trial", "taken"])
+    assert result.exit_code == 2 and "--overwrite" in result.output
