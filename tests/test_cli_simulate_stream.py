@@ -18,7 +18,7 @@ use_loopback()          # before the first pylsl call of this process
 
 from limbstiff.cli import main  # noqa: E402
 from limbstiff.files import write_trial  # noqa: E402
-from limbstiff.files.lsl import trial_channels  # noqa: E402
+from limbstiff.files.lsl_outlet import trial_channels  # noqa: E402
 from limbstiff.simulate import simulate  # noqa: E402
 
 needs_pylsl = pytest.mark.skipif(importlib.util.find_spec("pylsl") is None, reason="pylsl not installed")

@@ -98,7 +98,7 @@ def _first_seconds(trial, duration: float, scenario: str):
 
 def _stream(trial, *, name: str, type: str, wait_consumer: float) -> None:
     """Publish the trial on LSL in real time, with a line on stderr when it starts and ends."""
-    from ..files.lsl import desc_metadata, publish, trial_channels
+    from ..files.lsl_outlet import desc_metadata, publish, trial_channels
 
     values, labels, units = trial_channels(trial)
     fs = trial.fs

@@ -1,6 +1,6 @@
 """Input and output: trial files (CSV, TSV, XLSX, MAT), units, atomic writes and file hashes.
 
-Scope: everything that touches trial files on disk (:func:`read_trial` for every accepted
+Scope: everything that touches trial files on disk or a live stream (:func:`read_trial` for every accepted
 format, :func:`write_trial` for the standard CSV), the explicit unit table (:data:`UNITS`)
 and the atomic-write helpers every output goes through.
 
@@ -15,6 +15,9 @@ and the atomic-write helpers every output goes through.
 | ``validate.py`` | the common checks: time, gaps, length, motion, resampling, SHA-256 |
 | ``units.py`` | the unit table and standard ``<quantity>_<unit>`` names |
 | ``trial_csv.py`` | :func:`write_trial` (the standard CSV) |
+| ``recording.py`` | a CSV written as rows arrive (a live session's recording and estimate) |
+| ``lsl.py`` | Lab Streaming Layer streams in: finding, reading clock-corrected (``[stream]`` extra) |
+| ``lsl_outlet.py`` | Lab Streaming Layer streams out: the stiffness outlet, a trial published in real time |
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..batch.jobs import analyze_files
 from ..errors import StreamError
-from ..files import lsl
+from ..files import lsl, lsl_outlet
 from ..files.atomic import atomic_write_text
 from ..files.columns import in_si, resolve_columns
 from ..files.recording import GrowingTable
@@ -139,7 +139,16 @@ def _columns(description, protocol):
     if "torque" in columns and "elastic_torque" in columns:
         raise StreamError(where, "the stream has both an external and an elastic torque channel; map one in the protocol")
     torque = columns.get("elastic_torque") or columns.get("torque")
-    return headers, columns["angle"], torque, ("direct" if "elastic_torque" in columns else "external")
+    # the units are linear: one factor per channel (SI conversion times the protocol's scale)
+    picked = [_Channel(c.index, float(in_si(np.ones(1), c)[0]), c.unit) for c in (columns["angle"], torque)]
+    return headers, picked[0], picked[1], ("direct" if "elastic_torque" in columns else "external")
+
+
+@dataclass(frozen=True)
+class _Channel:
+    index: int
+    factor: float
+    unit: str
 
 
 @dataclass
@@ -199,7 +208,7 @@ def _outlet(settings: StreamSettings, description, unit: str):
         return None
     meta = {"input_stream": description.name, "input_source_id": description.source_id,
             "verdict_codes": "; ".join(f"{k} = {v}" for k, v in VERDICT_NAMES.items())}
-    return lsl.StiffnessOutlet(name=settings.outlet, fs=description.fs, unit=unit,
+    return lsl_outlet.StiffnessOutlet(name=settings.outlet, fs=description.fs, unit=unit,
                                source_id=f"limbstiff-{description.source_id or description.name}", metadata=meta)
 
 
@@ -244,8 +253,8 @@ def _loop(settings, reader, session, recording, live, outlet, columns, progress)
             last_sample = now
             ts, values = chunk.timestamps, chunk.values
             first_ts = ts[0] if first_ts is None else first_ts
-            y = in_si(values[:, angle_col.index], angle_col)
-            f = in_si(values[:, torque_col.index], torque_col)
+            y = values[:, angle_col.index] * angle_col.factor
+            f = values[:, torque_col.index] * torque_col.factor
             published = session.feed(ts, y, f)
             if outlet is not None:
                 outlet.push(published.values, ts)

@@ -25,7 +25,7 @@ def unique_name(prefix: str = "limbstiff-test") -> str:
 
 
 class Publisher(threading.Thread):
-    """:func:`limbstiff.files.lsl.publish` in a daemon thread; ``result`` is its return value and
+    """:func:`limbstiff.files.lsl_outlet.publish` in a daemon thread; ``result`` is its return value and
     ``error`` what it raised."""
 
     def __init__(self, *args, **kwargs):
@@ -36,7 +36,7 @@ class Publisher(threading.Thread):
         self.error = None
 
     def run(self):
-        from limbstiff.files.lsl import publish
+        from limbstiff.files.lsl_outlet import publish
         args, kwargs = self._call
         try:
             self.result = publish(*args, **kwargs)
@@ -50,7 +50,7 @@ def restarted(values, *, split: int, pause_s: float, **kwargs) -> threading.Thre
 
     The second outlet's stamps start at its own ``t0`` (a restarted sender's clock goes on);
     ``thread.results`` holds both return values."""
-    from limbstiff.files.lsl import publish
+    from limbstiff.files.lsl_outlet import publish
     stop = kwargs.setdefault("stop", threading.Event())
 
     def run():
