@@ -228,3 +228,15 @@ def test_growing_table_is_exact_and_readable_before_it_is_closed(tmp_path):
     np.testing.assert_array_equal(back, rows)        # 17 significant digits: the same float64
     with pytest.raises(ValueError, match="3 columns"):
         GrowingTable(tmp_path / "other.csv", ["a", "b", "c"]).append(np.zeros((1, 2)))
+
+
+def test_samples_missing_inside_a_chunk_are_bridged_too(ramp_trial):
+    y, f, _, fs = ramp_trial
+    n = 9000
+    t = np.arange(n) / fs
+    keep = np.ones(n, dtype=bool)
+    keep[7003:7010] = False                      # inside one 100-sample chunk
+    whole = LiveSession(fs, Immediately())
+    _replay(whole, y[:n][keep], f[:n][keep], fs, times=t[keep], chunk=100)
+    assert whole.events.dropped_samples == 7 and whole.events.bridged_gaps == 1 and whole.events.breaks == []
+    assert whole.record.n == n                   # the estimate ran on the bridged samples

@@ -51,23 +51,29 @@ class GrowingTable:
             lines.append(",".join(u or "" for u in units))
         self._handle.write("\n".join(lines) + "\n")
         self._flushed = time.monotonic()
+        self._pending: list[np.ndarray] = []
 
     def append(self, rows: np.ndarray) -> None:
-        """Append rows (shape (n, columns)); flushed to disk when :data:`FLUSH_EVERY_S` has passed."""
+        """Append rows (shape (n, columns)): formatted in blocks, and on disk within
+        :data:`FLUSH_EVERY_S` (a live loop's chunks are a few rows: one formatting call per second
+        instead of one per chunk)."""
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
         if rows.size == 0:
             return
         if rows.shape[1] != self.columns:
             raise ValueError(f"{self.path.name}: {rows.shape[1]} values per row, {self.columns} columns")
-        buffer = io.StringIO()
-        np.savetxt(buffer, rows, fmt=EXACT, delimiter=",")
-        self._handle.write(buffer.getvalue())
+        self._pending.append(rows.copy())
         self.rows += len(rows)
         if time.monotonic() - self._flushed >= FLUSH_EVERY_S:
             self.flush()
 
     def flush(self) -> None:
         """Write what is buffered to disk."""
+        if self._pending:
+            buffer = io.StringIO()
+            np.savetxt(buffer, np.vstack(self._pending), fmt=EXACT, delimiter=",")
+            self._handle.write(buffer.getvalue())
+            self._pending = []
         self._handle.flush()
         os.fsync(self._handle.fileno())
         self._flushed = time.monotonic()

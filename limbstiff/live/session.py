@@ -166,11 +166,10 @@ class LiveSession:
         angle, torque = np.asarray(angle, dtype=float), np.asarray(torque, dtype=float)
         values = np.full((len(timestamps), 5), np.nan)
         values[:, 4] = NO_ESTIMATE
-        breaks = self._breaks_in(timestamps)
+        gaps, breaks = self._gaps_in(timestamps)
         start = 0
-        for cut in breaks:
-            if cut > start:
-                self._segment(timestamps[start:cut], angle[start:cut], torque[start:cut], values[start:cut])
+        for cut in gaps:             # each piece bridges or breaks from the sample before it
+            self._segment(timestamps[start:cut], angle[start:cut], torque[start:cut], values[start:cut])
             start = cut
         self._segment(timestamps[start:], angle[start:], torque[start:], values[start:])
         self.events.samples += len(timestamps)
@@ -178,13 +177,22 @@ class LiveSession:
             self.last = values[-1]
         return Published(timestamps, values, tuple(breaks))
 
-    def _breaks_in(self, timestamps: np.ndarray) -> list[int]:
-        """The samples of a chunk that start a new segment: after a gap too long to bridge (0 when
-        the gap is before the chunk)."""
+    def _gaps_in(self, timestamps: np.ndarray) -> tuple[list[int], list[int]]:
+        """The samples of a chunk after a missing sample (1.5 periods or more), and of those the
+        ones after a gap too long to bridge (0 when that gap is before the chunk)."""
+        n = len(timestamps)
+        if not n:
+            return [], []
         longest = self._longest_gap()
-        first = self._last_time is not None and len(timestamps) and timestamps[0] - self._last_time > longest
-        inner = [] if len(timestamps) < 2 else (np.flatnonzero(np.diff(timestamps) > longest) + 1).tolist()
-        return ([0] if first else []) + inner
+        first = self._last_time is not None and timestamps[0] - self._last_time > longest
+        # a chunk no longer than its samples at the nominal rate misses none (most chunks: no diff)
+        if n < 2 or timestamps[-1] - timestamps[0] <= (n - 0.5) / self.fs:
+            gaps = []
+        else:
+            step = np.diff(timestamps)
+            gaps = (np.flatnonzero(step > 1.5 / self.fs) + 1).tolist()
+        breaks = [i for i in gaps if timestamps[i] - timestamps[i - 1] > longest]
+        return gaps, ([0] if first else []) + breaks
 
     def _longest_gap(self) -> float:
         motion = self.model.motion_hz if self.model is not None else None
