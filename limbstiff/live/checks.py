@@ -9,7 +9,9 @@ Over the last :data:`WINDOW_PERIODS` motion periods of model steps (at least :da
   :data:`~limbstiff.checks.verdict.HELDOUT_UNRELIABLE`). A one-step prediction is easier than the
   offline check's whole held-out periods, so this flags only what the offline check flags too;
 * noise — the standardised prediction errors are white when the model is right: their largest
-  |autocorrelation| at lags 1–10 steps above :data:`~limbstiff.checks.verdict.WHITENESS_MAX` is ``caution``;
+  |autocorrelation| at lags 1–10 steps above :data:`~limbstiff.checks.verdict.WHITENESS_MAX` is ``caution``,
+  unless they leave less than :data:`~limbstiff.checks.verdict.NEGLIGIBLE_RESIDUAL` of z's variance
+  (a noise-free simulation: their structure is the integration's own error, as offline);
 * tracking — a stiffness that changes faster than the live estimate follows leaves its one-step
   prediction errors proportional to the angle's increments, e ≈ (σ − σ̂)·Δy: their least-squares
   slope on Δy over the window, β, is what the estimate misses. |β| over the band's median
@@ -31,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
-                              NEGATIVE_SHARE_MAX, WHITENESS_MAX)
+                              NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, WHITENESS_MAX)
 
 #: Standard errors |β| must exceed for the tracking check (a two-sided test at 0.27 %; not fitted).
 TRACKING_Z = 3.0
@@ -139,7 +141,7 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
         severity["torque_explained"] = CAUTION
     if tracking > 1.0 and z > TRACKING_Z:
         severity["tracking"] = CAUTION
-    if white > WHITENESS_MAX:
+    if white > WHITENESS_MAX and not explained > 1.0 - NEGLIGIBLE_RESIDUAL:
         severity["noise"] = CAUTION
     if width > BAND_ZERO_MAX:
         severity["band_width"] = UNRELIABLE

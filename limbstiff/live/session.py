@@ -283,9 +283,10 @@ class LiveSession:
         self.estimator, self.model = est, est.model
         if full:
             self._window = _Window(self._window_steps())
-            self.events.identifications.append({"at_samples": at, "inertia": self.model.inertia,
-                                                "damping": self.model.damping, "corner_hz": self.model.corner_hz,
-                                                "warnings": list(found.warnings)})
+            direct = found.variant == "direct"      # the elastic torque is measured: no m, b
+            self.events.identifications.append({"at_samples": at, "inertia": None if direct else self.model.inertia,
+                                                "damping": None if direct else self.model.damping,
+                                                "corner_hz": self.model.corner_hz, "warnings": list(found.warnings)})
         else:
             self.events.refits += 1
 

@@ -31,7 +31,8 @@ def status_line(session, *, stalled_s: float | None = None) -> str:
     elif last is not None and np.isfinite(last[0]):
         parts.append(f"stiffness {last[0]:.4g} [{last[1]:.4g}, {last[2]:.4g}]")
         m = session.model
-        parts.append(f"m {m.inertia:.3g} b {m.damping:.3g}")
+        if m.inertia or m.damping:          # none for the direct variant
+            parts.append(f"m {m.inertia:.3g} b {m.damping:.3g}")
     checks = session.checks
     if checks is not None:
         parts.append(f"informed {100 * checks.motion:.0f} %")
