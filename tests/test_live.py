@@ -239,4 +239,17 @@ def test_samples_missing_inside_a_chunk_are_bridged_too(ramp_trial):
     whole = LiveSession(fs, Immediately())
     _replay(whole, y[:n][keep], f[:n][keep], fs, times=t[keep], chunk=100)
     assert whole.events.dropped_samples == 7 and whole.events.bridged_gaps == 1 and whole.events.breaks == []
-    assert whole.record.n == n                   # the estimate ran on the bridged samples
+    assert whole.record.total == n               # the estimate ran on the bridged samples
+
+
+def test_the_record_keeps_its_last_samples_and_counts_from_the_segment_start():
+    from limbstiff.live.session import _Record
+    record = _Record(keep=100)
+    values = np.arange(1000.0)
+    for i in range(0, 1000, 7):
+        record.append(values[i:i + 7], -values[i:i + 7])
+    assert record.total == 1000 and 100 <= record.n <= 200     # never more than twice what is kept
+    angle, torque = record.last(100)
+    np.testing.assert_array_equal(angle, values[-100:])
+    np.testing.assert_array_equal(torque, -values[-100:])
+    np.testing.assert_array_equal(record.since(950)[0], values[950:])

@@ -81,9 +81,9 @@ def test_the_command_ends_with_the_recording_and_the_offline_analysis(session):
     table = np.loadtxt(out / "session1.csv", delimiter=",", comments="#", skiprows=8)
     n = len(table)
     assert 29000 <= n <= len(sent)
-    # the recording is what was sent: the values to the bit, the times within the dejitter's 1 ms
+    # the recording is what was sent: the values to the bit, the times on the stream's 1 ms grid
     np.testing.assert_array_equal(table[:, 1:], sent[:n])
-    np.testing.assert_allclose(table[:, 0], np.arange(n) / FS, atol=1e-3)
+    np.testing.assert_array_equal(table[:, 0], np.arange(n) / FS)
     summary = json.loads((out / "session1" / "summary.json").read_text())
     truth = sent[:n, 2]
     assert summary["verdict"] in ("ok", "caution", "unreliable")
@@ -118,8 +118,10 @@ def test_stream_json_says_what_happened(session):
     info = json.loads((out / "session1" / "stream.json").read_text())
     assert info["dropped_samples"] == 0 and info["breaks"] == []
     at = [d["at_s"] for d in info["identifications"]]
-    # the first at the warm-up; the next once it is due and the previous one is back (one at a time)
-    assert round(at[0]) == 5 and at[1] >= 10 and len(at) in (2, 3)
+    # the first at the warm-up; then noise refits and identifications once due and the previous
+    # one is back (one at a time: how many fit in 29 s depends on the machine's load)
+    assert round(at[0]) == 5 and all(later >= 10 for later in at[1:]) and len(at) <= 3
+    assert len(at) + info["noise_refits"] >= 2
     assert all("error" not in d for d in info["identifications"])
     for key in ("processing_us_per_sample", "end_to_end_ms"):
         assert set(info["latency"][key]) >= {"median", "p99_9", "max", "chunks"}

@@ -12,6 +12,7 @@ so the session ends with the same outputs as ``limbstiff analyze``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import multiprocessing
 import time
@@ -134,6 +135,8 @@ def _headers(description: lsl.StreamDescription) -> list[str]:
 def _columns(description, protocol):
     headers = _headers(description)
     where = description.label
+    # a stream's time is its time stamps: a protocol's time column (for its files) is not a channel
+    protocol = dataclasses.replace(protocol, columns={k: v for k, v in protocol.columns.items() if k != "time"})
     columns = resolve_columns(where, headers, protocol, units=list(description.units), noun="channel",
                               need_time=False)
     if "torque" in columns and "elastic_torque" in columns:
@@ -172,8 +175,9 @@ class _Latency:
 class _Recording:
     """The raw samples as received, one file per segment (a break starts ``<trial>-2.csv``…)."""
 
-    def __init__(self, out: Path, trial: str, headers, units, metadata):
+    def __init__(self, out: Path, trial: str, headers, units, metadata, fs: float):
         self.out, self.trial, self.headers, self.units, self.metadata = out, trial, headers, units, metadata
+        self.fs = fs
         self.tables: list[GrowingTable] = []
         self.t0 = self.zero = 0.0
 
@@ -189,7 +193,10 @@ class _Recording:
             self.zero = self.t0
 
     def append(self, timestamps, values):
-        self.tables[-1].append(np.column_stack([timestamps - self.t0, values]))
+        # on the stream's nominal grid: LSL's clock correction moves the stamps by ~1 % of a period
+        # from sample to sample, which a reader would resample; the raw stamps are in live.csv
+        grid = np.round((timestamps - self.t0) * self.fs) / self.fs
+        self.tables[-1].append(np.column_stack([grid, values]))
 
     def close(self) -> list[Path]:
         return [table.close() for table in self.tables]
@@ -201,7 +208,7 @@ def _open_outputs(settings: StreamSettings, description, headers):
     meta = {"stream": description.name, "stream_type": description.type, "source_id": description.source_id,
             "hostname": description.hostname, "nominal_rate_hz": f"{description.fs:g}"}
     units = [u or "" for u in description.units]
-    recording = _Recording(settings.out, settings.trial, headers, units, meta)
+    recording = _Recording(settings.out, settings.trial, headers, units, meta, description.fs)
     live = GrowingTable(folder / "live.csv", LIVE_COLUMNS, metadata={"stream": description.name})
     return folder, recording, live
 

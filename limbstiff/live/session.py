@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import LimbstiffError
 from ..analysis import OBSERVABLE_PERIODS
 from .checks import NO_ESTIMATE, WINDOW_MIN_S, WINDOW_PERIODS, LiveChecks, live_checks
-from .identify import REFIT_RECORD_S, LiveIdentification, identify_live, refit_live
+from .identify import LONGEST_RECORD_S, REFIT_RECORD_S, LiveIdentification, identify_live, refit_live
 
 #: The first identification after this many seconds of record (``--warmup``), then each time the
 #: record doubles, then every :data:`REIDENTIFY_EVERY_S`.
@@ -79,12 +79,31 @@ class Immediately:
 
 
 class _Record:
-    """Growable SI arrays of the current segment (since the start or the last break)."""
+    """SI arrays of the current segment (since the start or the last break): its last ``keep``
+    samples at least (an identification looks no further back), so that a session of hours holds
+    and copies minutes, not hours. Positions are counted from the segment's start (``total``)."""
 
-    def __init__(self):
+    def __init__(self, keep: int):
+        self.keep = max(int(keep), 1)
         self.angle = np.empty(4096)
         self.torque = np.empty(4096)
-        self.n = 0
+        self.n = 0              # samples held
+        self.offset = 0         # samples dropped from the front
+
+    @property
+    def total(self) -> int:
+        """Samples of the segment so far."""
+        return self.offset + self.n
+
+    def last(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of the last ``k`` samples held (fewer when fewer are)."""
+        first = max(0, self.n - k)
+        return self.angle[first:self.n].copy(), self.torque[first:self.n].copy()
+
+    def since(self, position: int) -> tuple[np.ndarray, np.ndarray]:
+        """The samples from segment position ``position`` on (views)."""
+        first = max(0, position - self.offset)
+        return self.angle[first:self.n], self.torque[first:self.n]
 
     def append(self, angle, torque):
         end = self.n + len(angle)
@@ -95,6 +114,12 @@ class _Record:
         self.angle[self.n:end] = angle
         self.torque[self.n:end] = torque
         self.n = end
+        if self.n > 2 * self.keep:
+            drop = self.n - self.keep
+            self.angle[:self.keep] = self.angle[drop:self.n]
+            self.torque[:self.keep] = self.torque[drop:self.n]
+            self.offset += drop
+            self.n = self.keep
 
 
 @dataclass
@@ -146,7 +171,7 @@ class LiveSession:
 
     def __init__(self, fs: float, identifier, *, warmup_s: float = WARMUP_S):
         self.fs, self.identifier, self.warmup_s = float(fs), identifier, float(warmup_s)
-        self.record = _Record()
+        self.record = _Record(LONGEST_RECORD_S * self.fs)
         self.events = SessionEvents()
         self.estimator = None
         self.model = None
@@ -240,7 +265,7 @@ class LiveSession:
         """A gap too long to bridge: the estimate starts again (the model is kept)."""
         self.events.breaks.append((before, after))
         self.events.dropped_samples += max(int(round((after - before) * self.fs)) - 1, 0)
-        self.record = _Record()
+        self.record = _Record(LONGEST_RECORD_S * self.fs)
         self._done = 0 if self.model is None else 1
         self.pending = None
         if self.estimator is not None:
@@ -251,16 +276,17 @@ class LiveSession:
     def _ask_identification(self):
         if self.pending is not None:
             return
-        n = self.record.n
+        n = self.record.total
         due = identification_due(0, self._done, warmup_s=self.warmup_s)
-        if n >= due * self.fs:
+        refit_due = self.model is not None and n - self._pending_at >= REFIT_EVERY_S * self.fs
+        # a full identification when due, but never two in a row while a model runs (on a busy
+        # machine they take longer than their spacing, and the noise refits would never come)
+        if n >= due * self.fs and not (refit_due and self._pending_kind == "full"):
             self._pending_kind = "full"
-            self.pending = self.identifier.submit(self.record.angle[:n].copy(), self.record.torque[:n].copy(), self.fs)
-        elif self.model is not None and n - self._pending_at >= REFIT_EVERY_S * self.fs:
-            first = max(0, n - int(REFIT_RECORD_S * self.fs))
+            self.pending = self.identifier.submit(*self.record.last(self.record.keep), self.fs)
+        elif refit_due:
             self._pending_kind = "noise"
-            self.pending = self.identifier.refit(self.record.angle[first:n].copy(), self.record.torque[first:n].copy(),
-                                                 self.fs, self.model)
+            self.pending = self.identifier.refit(*self.record.last(int(REFIT_RECORD_S * self.fs)), self.fs, self.model)
         else:
             return
         self._pending_at = n
@@ -279,7 +305,7 @@ class LiveSession:
             return
         found: LiveIdentification = future.result()
         est = found.estimator
-        est.push(self.record.angle[at:self.record.n], self.record.torque[at:self.record.n])  # catch up
+        est.push(*self.record.since(at))        # catch up with the samples that came meanwhile
         self.estimator, self.model = est, est.model
         if full:
             self._window = _Window(self._window_steps())
