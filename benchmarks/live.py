@@ -1,5 +1,6 @@
-"""The live (causal) stiffness estimate against the offline smoother, its latency, and a whole
-session over the LSL loopback (issue 38).
+"""The live (causal) stiffness estimate: accuracy against the offline smoother, latency, LSL loopback (issue 38).
+
+The estimate against the smoother, its latency in-process, and a whole session over the LSL loopback.
 
     python benchmarks/live.py [--quick] [--only PART[,PART...]] [--seeds 2]
 
