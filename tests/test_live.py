@@ -102,7 +102,7 @@ def test_retuning_m_and_b_keeps_the_chain_and_changes_only_the_combination():
 
 
 def test_identification_schedule():
-    due = [identification_due(0, k, warmup_s=5.0) for k in range(6)]
+    due = [identification_due(k, warmup_s=5.0) for k in range(6)]
     assert due == [5.0, 10.0, 20.0, 40.0, 100.0, 160.0]
 
 
@@ -131,6 +131,10 @@ def test_a_replayed_session_follows_the_independent_ramp(ramp_trial):
     # the target (5 %): 1.9 % measured (30 s; cut to its first 22 s, the ramp weighs more: 3.2 %)
     assert np.median(error) < 0.05
     assert [d["at_samples"] for d in session.events.identifications] == [5000, 10000, 20000]
+    assert session.events.refits >= 8
+    # every estimator that took over (an identification, a noise refit) saw each sample once: run
+    # over the record it was given, then caught up, then fed (a chunk fed twice was a bug)
+    assert session.estimator.istate[kernel.SEEN] == session.record.total == len(y)
     assert session.events.dropped_samples == 0 and session.events.breaks == []
 
 

@@ -44,7 +44,7 @@ CHECK_EVERY_S = 0.25
 BRIDGE_PERIODS = 0.25
 
 
-def identification_due(seconds: float, done: int, *, warmup_s: float = WARMUP_S) -> float:
+def identification_due(done: int, *, warmup_s: float = WARMUP_S) -> float:
     """Record length (s) at which identification number ``done`` (0-based) is due: the warm-up,
     then doubling, then every :data:`REIDENTIFY_EVERY_S`."""
     due = warmup_s * 2.0 ** done
@@ -226,6 +226,9 @@ class LiveSession:
     def _segment(self, t, y, f, values):
         if not len(t):
             return
+        # an estimator that came back takes over before these samples: its catch-up ends where
+        # the record does now, and the samples below are pushed to it once
+        self._take_identification()
         if self._last_time is not None:
             gap = t[0] - self._last_time
             if gap > self._longest_gap():
@@ -234,7 +237,6 @@ class LiveSession:
                 self._bridge(t[0], y[0], f[0], gap)
         self._last_time = float(t[-1])
         self.record.append(y, f)
-        self._take_identification()
         if self.estimator is not None:
             out = self.estimator.push(y, f)
             values[:, :4] = out.rows[:, :4]
@@ -277,7 +279,7 @@ class LiveSession:
         if self.pending is not None:
             return
         n = self.record.total
-        due = identification_due(0, self._done, warmup_s=self.warmup_s)
+        due = identification_due(self._done, warmup_s=self.warmup_s)
         refit_due = self.model is not None and n - self._pending_at >= REFIT_EVERY_S * self.fs
         # a full identification when due, but never two in a row while a model runs (on a busy
         # machine they take longer than their spacing, and the noise refits would never come)
