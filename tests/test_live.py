@@ -257,3 +257,22 @@ def test_the_record_keeps_its_last_samples_and_counts_from_the_segment_start():
     np.testing.assert_array_equal(angle, values[-100:])
     np.testing.assert_array_equal(torque, -values[-100:])
     np.testing.assert_array_equal(record.since(950)[0], values[950:])
+
+
+def test_changing_check_flags_an_estimate_that_moved_more_than_its_band():
+    k = 200
+    flat = np.full(k, 10.0)
+    ramp = np.linspace(10.0, 12.0, k)         # 2 N·m/rad over the window; 0.8 over the last 80 steps
+    rng = np.random.default_rng(1)
+    e, s, z, y = rng.normal(0, 1, k), np.ones(k), rng.normal(0, 5, k), np.cumsum(rng.normal(0, 0.01, k))
+    ones = np.ones(k, bool)
+
+    def check(stiffness, half, memory):
+        return live_checks(stiffness, stiffness - half, stiffness + half, ones, e, s, z, y, memory=memory)
+
+    assert "changing" not in check(flat, 0.5, 80).failed
+    moved = check(ramp, 0.5, 80)              # moved 0.80 over the memory, band half-width 0.5: 1.61
+    assert "changing" in moved.failed and moved.moved == pytest.approx(2.0 / 199 * 80 / 0.5, rel=1e-9)
+    assert moved.verdict == CAUTION
+    assert "changing" not in check(ramp, 1.0, 80).failed     # 0.8 < 1.0
+    assert np.isnan(check(ramp, 0.5, None).moved)             # no memory, no check

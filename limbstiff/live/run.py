@@ -116,6 +116,16 @@ class WorkerIdentifier:
         self.pool.shutdown(wait=False, cancel_futures=True)
 
 
+def _warm_kernel() -> None:
+    """Load the compiled chain in this process before the stream starts (loading it from numba's
+    cache at the first take-over held that chunk up by tens of milliseconds)."""
+    from ..statespace.noise import NoiseLevels
+    from .estimator import LiveEstimator, LiveModel
+    model = LiveModel(fs=100.0, corner_hz=10.0, motion_hz=1.0, noise=NoiseLevels(1.0, 1.0, 1.0, 1.0), inertia=0.0,
+                      damping=0.0, covariance=np.zeros((2, 2)), initial_cov=(1.0, 1.0), typical_variance=None)
+    LiveEstimator(model).push(np.zeros(32), np.zeros(32))
+
+
 def _warm_up() -> None:
     from . import identify
     del identify      # imported for its imports: the analysis and the compiled kernels
@@ -326,6 +336,7 @@ def run_stream(settings: StreamSettings, *, progress: Callable[[str], None] | No
     headers, angle_col, torque_col, variant = _columns(description, settings.protocol)
     folder, recording, live = _open_outputs(settings, description, headers)
     identifier = WorkerIdentifier(protocol=settings.protocol, seed=settings.seed, name=settings.trial, variant=variant)
+    _warm_kernel()
     session = LiveSession(description.fs, identifier, warmup_s=settings.warmup_s)
     outlet = _outlet(settings, description, _stiffness_unit(angle_col))
     offsets = []

@@ -272,7 +272,7 @@ class LiveSession:
         self.pending = None
         if self.estimator is not None:
             self.estimator.reset()
-            self._window = _Window(self._window_steps())
+            self._window = self._new_window()
             self._verdict, self.events.checks = NO_ESTIMATE, None
 
     def _ask_identification(self):
@@ -310,7 +310,7 @@ class LiveSession:
         est.push(*self.record.since(at))        # catch up with the samples that came meanwhile
         self.estimator, self.model = est, est.model
         if full:
-            self._window = _Window(self._window_steps())
+            self._window = self._new_window(keep=self._window)
             direct = found.variant == "direct"      # the elastic torque is measured: no m, b
             self.events.identifications.append({"at_samples": at, "inertia": None if direct else self.model.inertia,
                                                 "damping": None if direct else self.model.damping,
@@ -322,6 +322,17 @@ class LiveSession:
         seconds = max(WINDOW_PERIODS / self.model.motion_hz, WINDOW_MIN_S)
         return int(seconds * self.fs / self.model.decimation)
 
+    def _new_window(self, keep: "_Window | None" = None) -> "_Window":
+        """A window for the model now; with the steps of ``keep`` when they are the same steps (the
+        checks then look back across a take-over, which a change that starts then needs)."""
+        m = self.model
+        memory = None if m.memory_s is None else max(1, int(round(m.memory_s * m.fs / m.decimation)))
+        window = _Window(self._window_steps(), memory)
+        if keep is not None and keep.count and keep.decimation == m.decimation:
+            window.add(keep.tail(keep.count))
+        window.decimation = m.decimation
+        return window
+
     @property
     def checks(self) -> LiveChecks | None:
         """The last checks made."""
@@ -331,9 +342,11 @@ class LiveSession:
 class _Window:
     """The model steps of the last window (rows of :data:`~limbstiff.live.kernel.OUT`), in a ring."""
 
-    def __init__(self, capacity: int):
+    def __init__(self, capacity: int, memory: int | None = None):
         self.ring = np.empty((max(capacity, 1), 10))
         self.pos = self.count = 0
+        self.memory = memory
+        self.decimation = 0
 
     def add(self, rows: np.ndarray):
         size = len(self.ring)
@@ -345,7 +358,11 @@ class _Window:
         self.pos = (self.pos + k) % size
         self.count = min(self.count + k, size)
 
+    def tail(self, k: int) -> np.ndarray:
+        """The last ``k`` rows held, in order."""
+        return self.ring[(self.pos - k + np.arange(k)) % len(self.ring)]
+
     def checks(self) -> LiveChecks:
         rows = self.ring[:self.count] if self.count < len(self.ring) else np.roll(self.ring, -self.pos, axis=0)
         return live_checks(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3] > 0, rows[:, 5], rows[:, 6], rows[:, 7],
-                           rows[:, 8])
+                           rows[:, 8], memory=self.memory)
