@@ -51,7 +51,6 @@ def command(name, type_, protocol_path, out, trial, duration_s, warmup_s, timeou
     for path in (out_dir / f"{trial}.csv", out_dir / trial):
         if path.exists() and not overwrite:
             fail(f"{path}: exists; use --overwrite or another --trial")
-    out_dir.mkdir(parents=True, exist_ok=True)
     protocol = load_protocol_or_default(protocol_path).override(inertia=inertia, damping=damping)
     settings = StreamSettings(name=name, type=type_, out=out_dir, trial=trial, protocol=protocol,
                               duration_s=duration_s, timeout_s=timeout_s, warmup_s=warmup_s, resolve_s=resolve_s,

@@ -91,7 +91,7 @@ class WorkerIdentifier:
 
     def __init__(self, **options):
         self.options = {"memory_periods": MEMORY_PERIODS, **options}
-        self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+        self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"), initializer=_ignore_interrupt)
         self.note: str | None = None
         self.pool.submit(_warm_up)      # the worker's imports and compiled kernels, during the warm-up
 
@@ -114,6 +114,13 @@ class WorkerIdentifier:
 
     def close(self):
         self.pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _ignore_interrupt() -> None:
+    """In the worker: Ctrl-C is for the session (which ends and keeps the recording); the worker,
+    in the same process group, would otherwise die with a traceback on the terminal."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _warm_kernel() -> None:
