@@ -276,3 +276,18 @@ def test_changing_check_flags_an_estimate_that_moved_more_than_its_band():
     assert moved.verdict == CAUTION
     assert "changing" not in check(ramp, 1.0, 80).failed     # 0.8 < 1.0
     assert np.isnan(check(ramp, 0.5, None).moved)             # no memory, no check
+
+
+def test_samples_that_are_not_numbers_are_left_out_as_missing(ramp_trial):
+    y, f, _, fs = ramp_trial
+    n = 9000
+    angle = y[:n].copy()
+    angle[7005:7008] = np.nan                    # a sensor's dropout inside a chunk
+    session = LiveSession(fs, Immediately())
+    values, parts = _replay(session, angle, f[:n], fs)
+    assert session.events.non_finite == 3 and session.events.dropped_samples == 3
+    assert session.events.bridged_gaps == 1 and session.events.samples == n
+    assert np.all(np.isnan(values[7005:7008, 0])) and np.all(values[7005:7008, 3] == 0)
+    assert np.all(np.isfinite(values[7008:, 0]))            # the estimate goes on, not NaN for ever
+    part = parts[700]
+    assert part.usable is not None and part.usable.tolist() == [True] * 5 + [False] * 3 + [True] * 2

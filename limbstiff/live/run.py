@@ -309,9 +309,11 @@ def _write(recording, live, ts, values, published):
     if not recording.tables:
         recording.segment(ts[0])
     start = 0
+    usable = published.usable
     for cut in [*published.breaks, len(ts)]:
         if cut > start:
-            recording.append(ts[start:cut], values[start:cut])
+            keep = slice(start, cut) if usable is None else np.flatnonzero(usable[start:cut]) + start
+            recording.append(ts[keep], values[keep])      # a sample that is not a number: left out
         if cut < len(ts):
             recording.segment(ts[cut])
         start = cut
@@ -381,7 +383,7 @@ def _summary(settings, description, session, stopped, latency, offsets, paths, n
         "stream": {"name": description.name, "type": description.type, "source_id": description.source_id,
                    "hostname": description.hostname, "nominal_rate_hz": fs, "channels": list(description.labels)},
         "recordings": [p.name for p in paths], "stopped": stopped, "samples": ev.samples,
-        "dropped_samples": ev.dropped_samples, "bridged_gaps": ev.bridged_gaps,
+        "dropped_samples": ev.dropped_samples, "bridged_gaps": ev.bridged_gaps, "non_finite_samples": ev.non_finite,
         "breaks": [{"from_lsl_time_s": a, "to_lsl_time_s": b} for a, b in ev.breaks],
         "clock_offset_s": {"start": _finite(offsets[0]) if offsets else None,
                            "end": _finite(offsets[-1]) if offsets else None},

@@ -127,6 +127,7 @@ class SessionEvents:
     """What happened to the stream and the model during a session (``stream.json``)."""
 
     samples: int = 0
+    non_finite: int = 0
     refits: int = 0
     failed_refits: list = field(default_factory=list)
     dropped_samples: int = 0
@@ -149,11 +150,14 @@ class Published:
     breaks : tuple of int
         The samples that start a new segment (after a gap too long to bridge; 0 when the gap is
         before the chunk): the recording starts a new file there.
+    usable : ndarray of bool, shape (n,), or None
+        False for the samples left out (angle or torque not a number); None when all are used.
     """
 
     timestamps: np.ndarray
     values: np.ndarray
     breaks: tuple = ()
+    usable: np.ndarray | None = None
 
 
 class LiveSession:
@@ -186,9 +190,23 @@ class LiveSession:
         self.last: np.ndarray | None = None
 
     def feed(self, timestamps: np.ndarray, angle: np.ndarray, torque: np.ndarray) -> Published:
-        """Take the next samples (SI units, in order) and return what to publish for them."""
+        """Take the next samples (SI units, in order) and return what to publish for them.
+
+        A sample whose angle or torque is not a number (a sensor's dropout) is left out, as a
+        missing one: bridged or a break, counted in ``events.non_finite``; its row is NaN.
+        """
         timestamps = np.asarray(timestamps, dtype=float)
         angle, torque = np.asarray(angle, dtype=float), np.asarray(torque, dtype=float)
+        finite = np.isfinite(angle) & np.isfinite(torque)
+        if not finite.all():
+            keep = np.flatnonzero(finite)
+            inner = self.feed(timestamps[keep], angle[keep], torque[keep])
+            values = np.full((len(timestamps), 5), np.nan)
+            values[:, 3], values[:, 4] = 0.0, self._verdict if self.estimator is not None else NO_ESTIMATE
+            values[keep] = inner.values
+            self.events.samples += len(timestamps) - len(keep)
+            self.events.non_finite += len(timestamps) - len(keep)
+            return Published(timestamps, values, tuple(int(keep[b]) for b in inner.breaks), finite)
         values = np.full((len(timestamps), 5), np.nan)
         values[:, 4] = NO_ESTIMATE
         gaps, breaks = self._gaps_in(timestamps)
