@@ -306,3 +306,78 @@ def test_the_direct_variant_needs_no_inertia_or_damping():
     # estimate averages over its memory; 10 % leaves room and still fails a wrong chain (m·ÿ + b·ẏ
     # taken off an elastic torque, or a channel mixed up, is tens of per cent off)
     assert np.median(error) < 0.10
+
+
+def test_the_recording_time_always_increases_and_reads_back(tmp_path):
+    """A sender's clock 50 ppm fast and a clock-offset step of −20 ms (review of issue 38): the
+    time on the nominal grid still increases, keeps a real gap, and the file reads as a trial."""
+    from limbstiff.files import read_trial
+    from limbstiff.files.recording import SegmentedRecording
+
+    fs, n = 1000.0, 12000
+    stamps = 50.0 + np.arange(n) / fs * (1 + 5e-5)
+    stamps[8000:] -= 0.020                                   # the offset stepped back
+    stamps[10000:] += 0.030                                  # 30 samples missing
+    (tmp_path / "s-2.csv").write_text("another trial's file\n")
+    rec = SegmentedRecording(tmp_path, "s", ["angle_rad", "torque_Nm"], ["rad", "Nm"], {"stream": "x"}, fs)
+    t = np.arange(n) / fs
+    values = np.column_stack([0.1 * np.sin(2 * np.pi * t), 2.0 * np.sin(2 * np.pi * t)])
+    rec.segment(stamps[0])
+    rec.append(stamps[:6000], values[:6000])
+    rec.append(stamps[6000:], values[6000:])
+    rec.segment(99.0)                                        # a break: the next free name
+    rec.append(np.array([99.0, 99.001]), values[:2])
+    paths = rec.close()
+    assert [p.name for p in paths] == ["s.csv", "s-3.csv"]
+    assert (tmp_path / "s-2.csv").read_text() == "another trial's file\n"
+    time = np.loadtxt(paths[0], delimiter=",", comments="#", skiprows=4)[:, 0]   # 2 metadata lines, header, units
+    assert np.all(np.diff(time) > 0)
+    assert np.round(np.diff(time) * fs).max() == 31          # the gap kept: 30 missing samples
+    trial = read_trial(paths[0])
+    assert trial.n_samples > n                               # the gap bridged, nothing refused
+
+
+def test_the_analysis_bridges_what_the_session_bridged(tmp_path):
+    from types import SimpleNamespace
+
+    from limbstiff.live.run import _analysis_protocol
+    from limbstiff.protocol import Protocol
+
+    session = SimpleNamespace(events=SimpleNamespace(longest_bridged_s=0.081), fs=1000.0)
+    assert _analysis_protocol(Protocol(), session).max_gap_s == pytest.approx(0.0815)
+    given = Protocol(max_gap_s=0.05)                       # the session itself bridged no more than this
+    assert _analysis_protocol(given, session) is given
+    quiet = SimpleNamespace(events=SimpleNamespace(longest_bridged_s=0.0), fs=1000.0)
+    assert _analysis_protocol(Protocol(), quiet).max_gap_s is None
+    assert LiveSession(1000.0, Immediately(), max_gap_s=0.05)._longest_gap() == 0.05
+
+
+def test_identifications_after_a_long_warmup_come_every_minute():
+    assert [identification_due(k, warmup_s=90.0) for k in range(3)] == [90.0, 150.0, 210.0]
+    assert [identification_due(k, warmup_s=30.0) for k in range(4)] == [30.0, 60.0, 120.0, 180.0]
+
+
+def test_latency_quantiles_in_constant_memory():
+    from limbstiff.live.latency import Histogram
+    rng = np.random.default_rng(4)
+    values = rng.lognormal(-10, 1.0, 20000)
+    hist = Histogram()
+    for v in values:
+        hist.add(float(v))
+    for q in (0.5, 0.99, 0.999):
+        # the bin's upper edge: at most one bin (0.5 %) above the exact quantile, never below it
+        ratio = hist.quantile(q) / np.quantile(values, q)
+        assert 0.995 <= ratio <= 1.006
+    assert hist.summary(1.0)["max"] == values.max() and hist.n == 20000
+
+
+def test_a_step_of_the_clock_offset_is_reported():
+    from types import SimpleNamespace
+
+    from limbstiff.live.run import _clock_step
+    session = LiveSession(1000.0, Immediately())
+    offset = _clock_step(SimpleNamespace(clock_offset=0.0105), 0.0100, session, 12.0)   # half a period: no
+    assert offset == 0.0105 and session.events.clock_steps == []
+    offset = _clock_step(SimpleNamespace(clock_offset=-0.0100), offset, session, 13.0)
+    assert session.events.clock_steps == [{"at_lsl_time_s": 13.0, "step_s": pytest.approx(-0.0205)}]
+    assert _clock_step(SimpleNamespace(clock_offset=float("nan")), offset, session, 14.0) == offset

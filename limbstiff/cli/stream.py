@@ -59,12 +59,12 @@ def command(name, type_, protocol_path, out, trial, duration_s, warmup_s, timeou
     def show(line: str) -> None:
         click.echo("\r" + line[:160].ljust(160), nl=False, err=True)
 
-    outcome = run_stream(settings, progress=None if quiet else show)
-    if not quiet:
-        click.echo("", err=True)
-    recorded = ", ".join(str(p) for p in outcome.recordings) or "nothing"
-    click.echo(f"stream: {outcome.stopped}; {outcome.summary['samples']} samples recorded to {recorded}; "
-               f"live estimate and stream.json in {outcome.folder}", err=True)
+    def said(line: str) -> None:       # before the analysis: a Ctrl-C there still leaves this said
+        if not quiet:
+            click.echo("", err=True)
+        click.echo(line, err=True)
+
+    outcome = run_stream(settings, progress=None if quiet else show, announce=said)
     if outcome.report is None:
         fail("no sample was received: nothing recorded")
     finish(outcome.report)

@@ -1,5 +1,7 @@
 """Tables written row block by row block while a live session runs: the recording and the live estimate.
 
+:class:`SegmentedRecording` is a live session's recording, one file per stretch without a break.
+
 A live session must never lose its recording: :class:`GrowingTable` appends each chunk to
 ``<name>.partial`` in the destination folder and flushes it to disk at least every
 :data:`FLUSH_EVERY_S` seconds, so a crash leaves at most that much unwritten; :meth:`GrowingTable.close`
@@ -85,3 +87,68 @@ class GrowingTable:
             self._handle.close()
             os.replace(self.partial, self.path)
         return self.path
+
+
+class SegmentedRecording:
+    """A live session's samples as received: ``<trial>.csv``, and after each break
+    ``<trial>-2.csv``, ``<trial>-3.csv``… (a suffix whose file and output folder are both free, so
+    that no other trial's file is replaced).
+
+    ``time_s`` is each sample's place on the stream's nominal grid: the previous one's plus the
+    whole number of periods between their time stamps, at least one. It always increases, keeps the
+    gaps, and does not drift with a sender's clock or jitter with LSL's clock correction (the raw
+    time stamps are the live table's).
+
+    Parameters
+    ----------
+    out : Path
+        Folder of the recording files.
+    trial : str
+    headers, units : sequence of str
+        The channels' headers and units.
+    metadata : mapping of str to str
+    fs : float, Hz
+        The stream's nominal rate.
+    """
+
+    def __init__(self, out: Path, trial: str, headers, units, metadata, fs: float):
+        self.out, self.trial, self.headers, self.units, self.metadata = Path(out), trial, headers, units, metadata
+        self.fs = float(fs)
+        self.tables: list[GrowingTable] = []
+        self.zero = 0.0
+        self._last_stamp = self._last_index = 0
+
+    def segment(self, t0: float) -> None:
+        """Start the next file at the sample stamped ``t0`` (LSL time, s)."""
+        if self.tables:
+            self.tables[-1].close()
+        name, k = self.trial, len(self.tables) + 1
+        if self.tables:
+            name = f"{self.trial}-{k}"
+            while (self.out / f"{name}.csv").exists() or (self.out / name).exists():
+                k += 1
+                name = f"{self.trial}-{k}"
+        meta = {**self.metadata, "lsl_time_at_zero_s": repr(float(t0))}
+        self.tables.append(GrowingTable(self.out / f"{name}.csv", ["time_s", *self.headers],
+                                        units=["s", *self.units], metadata=meta))
+        if len(self.tables) == 1:
+            self.zero = float(t0)
+        self._last_stamp, self._last_index = float(t0), -1
+
+    def append(self, timestamps: np.ndarray, values: np.ndarray) -> None:
+        """Append samples (stamps (n,), s; values (n, channels)) to the current file."""
+        if not len(timestamps):
+            return
+        steps = np.diff(np.concatenate([[self._last_stamp], timestamps])) * self.fs
+        index = self._last_index + np.cumsum(np.maximum(1, np.round(steps)))
+        self._last_stamp, self._last_index = float(timestamps[-1]), int(index[-1])
+        self.tables[-1].append(np.column_stack([index / self.fs, values]))
+
+    def flush(self) -> None:
+        """Put what is buffered on disk (a stalled stream's last rows)."""
+        if self.tables:
+            self.tables[-1].flush()
+
+    def close(self) -> list[Path]:
+        """Close every file; their paths."""
+        return [table.close() for table in self.tables]

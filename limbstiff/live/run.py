@@ -29,11 +29,12 @@ from ..errors import StreamError
 from ..files import lsl, lsl_outlet
 from ..files.atomic import atomic_write_text
 from ..files.columns import in_si, resolve_columns
-from ..files.recording import GrowingTable
+from ..files.recording import GrowingTable, SegmentedRecording
 from ..protocol import Protocol
 from ..result import software
 from .checks import VERDICT_NAMES
 from .identify import identify_live, refit_live
+from .latency import Latency
 from .session import MEMORY_PERIODS, REFIT_EVERY_S, WARMUP_S, LiveSession
 from .status import status_line
 
@@ -171,61 +172,13 @@ class _Channel:
     unit: str
 
 
-@dataclass
-class _Latency:
-    processing: list = field(default_factory=list)     # s per sample (wall), one per chunk
-    processing_cpu: list = field(default_factory=list)  # s per sample (this thread's CPU), one per chunk
-    delay: list = field(default_factory=list)          # s, publication − input time stamp, per chunk's last sample
-
-    def summary(self) -> dict:
-        def stats(values, scale):
-            if not values:
-                return None
-            v = np.asarray(values) * scale
-            return {"median": float(np.median(v)), "p99": float(np.percentile(v, 99)),
-                    "p99_9": float(np.percentile(v, 99.9)), "max": float(v.max()), "chunks": len(v)}
-        return {"processing_us_per_sample": stats(self.processing, 1e6),
-                "processing_cpu_us_per_sample": stats(self.processing_cpu, 1e6),
-                "end_to_end_ms": stats(self.delay, 1e3)}
-
-
-class _Recording:
-    """The raw samples as received, one file per segment (a break starts ``<trial>-2.csv``…)."""
-
-    def __init__(self, out: Path, trial: str, headers, units, metadata, fs: float):
-        self.out, self.trial, self.headers, self.units, self.metadata = out, trial, headers, units, metadata
-        self.fs = fs
-        self.tables: list[GrowingTable] = []
-        self.t0 = self.zero = 0.0
-
-    def segment(self, t0: float):
-        if self.tables:
-            self.tables[-1].close()
-        suffix = "" if not self.tables else f"-{len(self.tables) + 1}"
-        meta = {**self.metadata, "lsl_time_at_zero_s": repr(float(t0))}
-        self.tables.append(GrowingTable(self.out / f"{self.trial}{suffix}.csv", ["time_s", *self.headers],
-                                        units=["s", *self.units], metadata=meta))
-        self.t0 = float(t0)
-        if len(self.tables) == 1:
-            self.zero = self.t0
-
-    def append(self, timestamps, values):
-        # on the stream's nominal grid: LSL's clock correction moves the stamps by ~1 % of a period
-        # from sample to sample, which a reader would resample; the raw stamps are in live.csv
-        grid = np.round((timestamps - self.t0) * self.fs) / self.fs
-        self.tables[-1].append(np.column_stack([grid, values]))
-
-    def close(self) -> list[Path]:
-        return [table.close() for table in self.tables]
-
-
 def _open_outputs(settings: StreamSettings, description, headers):
     folder = settings.out / settings.trial
     folder.mkdir(parents=True, exist_ok=True)
     meta = {"stream": description.name, "stream_type": description.type, "source_id": description.source_id,
             "hostname": description.hostname, "nominal_rate_hz": f"{description.fs:g}"}
     units = [u or "" for u in description.units]
-    recording = _Recording(settings.out, settings.trial, headers, units, meta, description.fs)
+    recording = SegmentedRecording(settings.out, settings.trial, headers, units, meta, description.fs)
     live = GrowingTable(folder / "live.csv", LIVE_COLUMNS, metadata={"stream": description.name})
     return folder, recording, live
 
@@ -258,51 +211,77 @@ def _stiffness_unit(angle_column) -> str:
 
 def _loop(settings, reader, session, recording, live, outlet, columns, progress):
     """Pull, estimate, publish, write, until a stop; returns why it stopped and the latency."""
-    angle_col, torque_col = columns
-    latency = _Latency()
+    latency = Latency()
     last_sample = time.monotonic()
     shown = 0.0
     first_ts = None
-    stopped = "the stream ended"
+    offset = reader.clock_offset
     try:
         while True:
             chunk = reader.pull(timeout=0.05)
             now = time.monotonic()
             if chunk.n == 0:
                 if now - last_sample > settings.timeout_s:
-                    stopped = f"no sample for {settings.timeout_s:g} s (stream stalled or ended)"
-                    break
-                if progress and now - last_sample > 1.0 and now - shown > 0.5:
-                    progress(status_line(session, stalled_s=now - last_sample))
-                    shown = now
+                    return f"no sample for {settings.timeout_s:g} s (stream stalled or ended)", latency
+                if now - last_sample > 1.0:
+                    recording.flush()          # a stalled stream's last rows go to disk now
+                    if progress and now - shown > 0.5:
+                        progress(status_line(session, stalled_s=now - last_sample))
+                        shown = now
                 continue
-            started, started_cpu = time.perf_counter(), time.thread_time()
             last_sample = now
-            ts, values = chunk.timestamps, chunk.values
-            first_ts = ts[0] if first_ts is None else first_ts
-            y = values[:, angle_col.index] * angle_col.factor
-            f = values[:, torque_col.index] * torque_col.factor
-            published = session.feed(ts, y, f)
-            if outlet is not None:
-                outlet.push(published.values, ts)
-            done = time.perf_counter()
-            latency.processing.append((done - started) / chunk.n)
-            latency.processing_cpu.append((time.thread_time() - started_cpu) / chunk.n)
-            latency.delay.append(chunk.pulled_at + (done - started) - ts[-1])
-            _write(recording, live, ts, values, published)
+            first_ts = chunk.timestamps[0] if first_ts is None else first_ts
+            _one_chunk(chunk, session, recording, live, outlet, columns, latency)
+            offset = _clock_step(reader, offset, session, chunk.timestamps[-1])
             if progress and now - shown > 0.5:
                 progress(status_line(session))
                 shown = now
-            if settings.duration_s is not None and ts[-1] - first_ts >= settings.duration_s:
-                stopped = f"duration {settings.duration_s:g} s reached"
-                break
+            if settings.duration_s is not None and chunk.timestamps[-1] - first_ts >= settings.duration_s:
+                return f"duration {settings.duration_s:g} s reached", latency
     except KeyboardInterrupt:
-        stopped = "stopped by the user"
+        return "stopped by the user", latency
     except StreamError as exc:
-        stopped = f"the stream failed: {exc}"
+        return f"the stream failed: {exc}", latency
     except Exception as exc:    # the recording must be kept whatever went wrong; the error is said
-        stopped = f"stopped by an internal error ({type(exc).__name__}: {exc}); the recording up to it is kept"
-    return stopped, latency
+        return (f"stopped by an internal error ({type(exc).__name__}: {exc}); the recording up to it is kept",
+                latency)
+
+
+def _one_chunk(chunk, session, recording, live, outlet, columns, latency):
+    """Estimate, publish and write one chunk; a failure of the estimate or the outlet still writes
+    the chunk to the recording before it ends the session."""
+    started, started_cpu = time.perf_counter(), time.thread_time()
+    angle_col, torque_col = columns
+    ts, values = chunk.timestamps, chunk.values
+    try:
+        y = values[:, angle_col.index] * angle_col.factor
+        f = values[:, torque_col.index] * torque_col.factor
+        published = session.feed(ts, y, f)
+        if outlet is not None:
+            outlet.push(published.values, ts)
+    except Exception:
+        if not recording.tables:
+            recording.segment(ts[0])
+        recording.append(ts, values)
+        raise
+    done = time.perf_counter()
+    latency.processing.add((done - started) / chunk.n)
+    latency.processing_cpu.add((time.thread_time() - started_cpu) / chunk.n)
+    latency.delay.add(chunk.pulled_at + (done - started) - ts[-1])
+    _write(recording, live, ts, values, published)
+
+
+#: A change of the sender's clock offset larger than this many sample periods is reported.
+CLOCK_STEP_PERIODS = 1.0
+
+
+def _clock_step(reader, offset: float, session, at: float) -> float:
+    """Report a step of the clock offset LSL measures (its time stamps then jump by as much: a jump
+    forward reads as missing samples, one backward as none)."""
+    now = reader.clock_offset
+    if np.isfinite(now) and np.isfinite(offset) and abs(now - offset) > CLOCK_STEP_PERIODS / session.fs:
+        session.events.clock_steps.append({"at_lsl_time_s": float(at), "step_s": float(now - offset)})
+    return now if np.isfinite(now) else offset
 
 
 def _write(recording, live, ts, values, published):
@@ -320,7 +299,8 @@ def _write(recording, live, ts, values, published):
     live.append(np.column_stack([ts - recording.zero, ts, published.values]))
 
 
-def run_stream(settings: StreamSettings, *, progress: Callable[[str], None] | None = None) -> StreamOutcome:
+def run_stream(settings: StreamSettings, *, progress: Callable[[str], None] | None = None,
+               announce: Callable[[str], None] | None = None) -> StreamOutcome:
     """Run one live session (module docstring) and the offline analysis of its recording.
 
     Parameters
@@ -328,6 +308,8 @@ def run_stream(settings: StreamSettings, *, progress: Callable[[str], None] | No
     settings : StreamSettings
     progress : callable, optional
         Called with the status line (:func:`~limbstiff.live.status.status_line`) about twice a second.
+    announce : callable, optional
+        Called with one line once the recording and ``stream.json`` are written, before the analysis.
 
     Returns
     -------
@@ -343,30 +325,44 @@ def run_stream(settings: StreamSettings, *, progress: Callable[[str], None] | No
         raise StreamError(description.label, "the stream has no nominal sampling rate (irregular); "
                                              "limbstiff needs a regularly sampled stream")
     headers, angle_col, torque_col, variant = _columns(description, settings.protocol)
-    folder, recording, live = _open_outputs(settings, description, headers)
-    identifier = WorkerIdentifier(protocol=settings.protocol, seed=settings.seed, name=settings.trial, variant=variant)
-    _warm_kernel()
-    session = LiveSession(description.fs, identifier, warmup_s=settings.warmup_s)
-    outlet = _outlet(settings, description, _stiffness_unit(angle_col))
-    offsets = []
+    outlet = identifier = recording = live = None     # closed whatever happens: nothing left half-written
     try:
+        outlet = _outlet(settings, description, _stiffness_unit(angle_col))
+        identifier = WorkerIdentifier(protocol=settings.protocol, seed=settings.seed, name=settings.trial,
+                                      variant=variant)
+        _warm_kernel()
+        session = LiveSession(description.fs, identifier, warmup_s=settings.warmup_s,
+                              max_gap_s=settings.protocol.max_gap_s)
+        folder, recording, live = _open_outputs(settings, description, headers)
         with lsl.StreamReader(description) as reader:
-            offsets.append(reader.clock_offset)
+            offsets = [reader.clock_offset]
             stopped, latency = _loop(settings, reader, session, recording, live, outlet, (angle_col, torque_col),
                                      progress)
             offsets.append(reader.clock_offset)
     finally:
-        paths = tuple(recording.close())
-        live.close()
-        identifier.close()
-        if outlet is not None:
-            outlet.close()
+        paths = tuple(recording.close()) if recording is not None else ()
+        for thing in (live, identifier, outlet):
+            if thing is not None:
+                thing.close()
     notes = [identifier.note] if identifier.note else []
     summary = _summary(settings, description, session, stopped, latency, offsets, paths, notes)
     atomic_write_text(folder / "stream.json", json.dumps(summary, indent=2, allow_nan=False, default=_jsonable) + "\n")
-    report = analyze_files([str(p) for p in paths], protocol=settings.protocol, out=settings.out,
-                           seed=settings.seed, pdf=settings.pdf, overwrite=True) if paths else None
+    if announce:
+        recorded = ", ".join(str(p) for p in paths) or "nothing"
+        announce(f"stream: {stopped}; {summary['samples']} samples recorded to {recorded}; live estimate and "
+                 f"stream.json in {folder}")
+    report = analyze_files([str(p) for p in paths], protocol=_analysis_protocol(settings.protocol, session),
+                           out=settings.out, seed=settings.seed, pdf=settings.pdf, overwrite=True) if paths else None
     return StreamOutcome(recordings=paths, folder=folder, stopped=stopped, summary=summary, report=report)
+
+
+def _analysis_protocol(protocol: Protocol, session: LiveSession) -> Protocol:
+    """The protocol the recording is analysed with: the session's, bridging at least the gaps the
+    live session bridged (a file's reader would otherwise refuse a gap the session took)."""
+    longest = session.events.longest_bridged_s
+    if protocol.max_gap_s is not None or not longest:
+        return protocol
+    return protocol.override(max_gap_s=longest + 0.5 / session.fs)
 
 
 def _jsonable(value):
@@ -383,7 +379,9 @@ def _summary(settings, description, session, stopped, latency, offsets, paths, n
         "stream": {"name": description.name, "type": description.type, "source_id": description.source_id,
                    "hostname": description.hostname, "nominal_rate_hz": fs, "channels": list(description.labels)},
         "recordings": [p.name for p in paths], "stopped": stopped, "samples": ev.samples,
-        "dropped_samples": ev.dropped_samples, "bridged_gaps": ev.bridged_gaps, "non_finite_samples": ev.non_finite,
+        "dropped_samples": ev.dropped_samples, "bridged_gaps": ev.bridged_gaps,
+        "longest_bridged_gap_s": ev.longest_bridged_s, "non_finite_samples": ev.non_finite,
+        "clock_steps": ev.clock_steps,
         "breaks": [{"from_lsl_time_s": a, "to_lsl_time_s": b} for a, b in ev.breaks],
         "clock_offset_s": {"start": _finite(offsets[0]) if offsets else None,
                            "end": _finite(offsets[-1]) if offsets else None},

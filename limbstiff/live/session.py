@@ -46,13 +46,12 @@ BRIDGE_PERIODS = 0.25
 
 def identification_due(done: int, *, warmup_s: float = WARMUP_S) -> float:
     """Record length (s) at which identification number ``done`` (0-based) is due: the warm-up,
-    then doubling, then every :data:`REIDENTIFY_EVERY_S`."""
-    due = warmup_s * 2.0 ** done
-    if due <= REIDENTIFY_EVERY_S:
-        return due
-    last_doubling = warmup_s * 2.0 ** int(np.floor(np.log2(REIDENTIFY_EVERY_S / warmup_s)))
-    steps = done - int(np.floor(np.log2(REIDENTIFY_EVERY_S / warmup_s)))
-    return last_doubling + steps * REIDENTIFY_EVERY_S
+    then doubling while that stays within :data:`REIDENTIFY_EVERY_S`, then every
+    :data:`REIDENTIFY_EVERY_S` after the last one."""
+    doublings = int(np.floor(np.log2(REIDENTIFY_EVERY_S / warmup_s))) if warmup_s < REIDENTIFY_EVERY_S else 0
+    if done <= doublings:
+        return warmup_s * 2.0 ** done
+    return warmup_s * 2.0 ** doublings + (done - doublings) * REIDENTIFY_EVERY_S
 
 
 class Immediately:
@@ -128,6 +127,8 @@ class SessionEvents:
 
     samples: int = 0
     non_finite: int = 0
+    longest_bridged_s: float = 0.0
+    clock_steps: list = field(default_factory=list)
     refits: int = 0
     failed_refits: list = field(default_factory=list)
     dropped_samples: int = 0
@@ -171,10 +172,14 @@ class LiveSession:
         Runs :func:`~limbstiff.live.identify.identify_live` (:class:`Immediately`, or a worker process).
     warmup_s : float, s
         Record before the first identification.
+    max_gap_s : float, optional, s
+        The longest gap bridged (the protocol's ``[format] max_gap_s``, as the file readers take
+        it); by default a quarter of a motion period.
     """
 
-    def __init__(self, fs: float, identifier, *, warmup_s: float = WARMUP_S):
+    def __init__(self, fs: float, identifier, *, warmup_s: float = WARMUP_S, max_gap_s: float | None = None):
         self.fs, self.identifier, self.warmup_s = float(fs), identifier, float(warmup_s)
+        self.max_gap_s = max_gap_s
         self.record = _Record(LONGEST_RECORD_S * self.fs)
         self.events = SessionEvents()
         self.estimator = None
@@ -197,6 +202,9 @@ class LiveSession:
         """
         timestamps = np.asarray(timestamps, dtype=float)
         angle, torque = np.asarray(angle, dtype=float), np.asarray(torque, dtype=float)
+        # an estimator that came back takes over before these samples (its catch-up ends where the
+        # record does now), and before the gaps are judged, by the model that will feed them
+        self._take_identification()
         finite = np.isfinite(angle) & np.isfinite(torque)
         if not finite.all():
             keep = np.flatnonzero(finite)
@@ -238,15 +246,14 @@ class LiveSession:
         return gaps, ([0] if first else []) + breaks
 
     def _longest_gap(self) -> float:
+        if self.max_gap_s is not None:
+            return float(self.max_gap_s)
         motion = self.model.motion_hz if self.model is not None else None
         return max(BRIDGE_PERIODS / motion if motion else 0.1, 3.0 / self.fs)
 
     def _segment(self, t, y, f, values):
         if not len(t):
             return
-        # an estimator that came back takes over before these samples: its catch-up ends where
-        # the record does now, and the samples below are pushed to it once
-        self._take_identification()
         if self._last_time is not None:
             gap = t[0] - self._last_time
             if gap > self._longest_gap():
@@ -260,11 +267,12 @@ class LiveSession:
             values[:, :4] = out.rows[:, :4]
             self._window.add(out.rows[out.steps])
             self._since_check += len(t)
-            if self._since_check >= CHECK_EVERY_S * self.fs:
+            fresh = self._verdict == NO_ESTIMATE and np.isfinite(out.rows[-1, 0])     # a first estimate
+            if self._since_check >= CHECK_EVERY_S * self.fs or fresh:
                 self._since_check = 0
                 self.events.checks = self._window.checks()
                 self._verdict = self.events.checks.verdict
-            values[:, 4] = self._verdict
+            values[:, 4] = np.where(np.isnan(values[:, 0]), NO_ESTIMATE, self._verdict)
         self._ask_identification()
 
     def _bridge(self, t_next, y_next, f_next, gap):
@@ -274,6 +282,7 @@ class LiveSession:
             return
         self.events.dropped_samples += missing
         self.events.bridged_gaps += 1
+        self.events.longest_bridged_s = max(self.events.longest_bridged_s, float(gap))
         w = np.arange(1, missing + 1) / (missing + 1)
         y = self.record.angle[self.record.n - 1] * (1 - w) + y_next * w
         f = self.record.torque[self.record.n - 1] * (1 - w) + f_next * w
@@ -287,7 +296,7 @@ class LiveSession:
         self.events.dropped_samples += max(int(round((after - before) * self.fs)) - 1, 0)
         self.record = _Record(LONGEST_RECORD_S * self.fs)
         self._done = 0 if self.model is None else 1
-        self.pending = None
+        self.pending, self._pending_at = None, 0
         if self.estimator is not None:
             self.estimator.reset()
             self._window = self._new_window()
@@ -324,6 +333,11 @@ class LiveSession:
                 {"at_samples": at, "error": problem})
             return
         found: LiveIdentification = future.result()
+        problem = self._unusable(found, at)
+        if problem:
+            (self.events.identifications if full else self.events.failed_refits).append(
+                {"at_samples": at, "error": problem})
+            return
         est = found.estimator
         est.push(*self.record.since(at))        # catch up with the samples that came meanwhile
         self.estimator, self.model = est, est.model
@@ -335,6 +349,15 @@ class LiveSession:
                                                 "corner_hz": self.model.corner_hz, "warnings": list(found.warnings)})
         else:
             self.events.refits += 1
+
+    def _unusable(self, found: LiveIdentification, at: int) -> str | None:
+        """Why an identification that came back cannot take over, or None."""
+        noise = found.model.noise
+        if not all(np.isfinite([noise.measurement, noise.torque_walk, noise.stiffness_walk, noise.coupled_walk])):
+            return "the noise levels fitted are not numbers"
+        if at < self.record.offset:
+            return "it came back after the record it started from was dropped (longer than 10 minutes)"
+        return None
 
     def _window_steps(self) -> int:
         seconds = max(WINDOW_PERIODS / self.model.motion_hz, WINDOW_MIN_S)

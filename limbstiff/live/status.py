@@ -44,9 +44,8 @@ def status_line(session, *, stalled_s: float | None = None) -> str:
         parts.append(f"dropped {ev.dropped_samples}")
     if ev.breaks:
         parts.append(f"breaks {len(ev.breaks)}")
-    failed = [d for d in ev.identifications if "error" in d]
-    if failed:
-        parts.append(f"identification failed: {failed[-1]['error']}")
+    if ev.identifications and "error" in ev.identifications[-1]:      # until one succeeds
+        parts.append(f"identification failed: {ev.identifications[-1]['error']}")
     if stalled_s is not None:
         parts.append(f"STALLED {stalled_s:.0f} s")
     return " | ".join(parts)
