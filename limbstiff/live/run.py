@@ -1,10 +1,10 @@
 """``limbstiff stream``: an LSL stream in, the live stiffness out, the recording analysed at the end.
 
 :func:`run_stream` finds the stream, maps its channels through the protocol (by label, or
-``channel_<i>`` for the i-th channel without one), and until it stops (``duration_s``, ``stop``
-set — Ctrl-C —, or no sample for ``timeout_s``) feeds every chunk to a :class:`~limbstiff.live.session.LiveSession`,
+``channel_<i>`` for the i-th channel without one), and until it stops (``duration_s``, Ctrl-C, or
+no sample for ``timeout_s``) feeds every chunk to a :class:`~limbstiff.live.session.LiveSession`,
 publishes its rows on the ``limbstiff`` outlet with the input samples' time stamps, and writes the
-recording and the live estimate as they arrive (:class:`~limbstiff.files.recording.GrowingTable`).
+recording and the live estimate as they arrive (:mod:`limbstiff.files.recording`).
 The identification runs in a worker process, so the loop never waits for it. At the end it writes
 ``stream.json`` and runs the offline analysis on the recording (:func:`~limbstiff.batch.jobs.analyze_files`),
 so the session ends with the same outputs as ``limbstiff analyze``.
