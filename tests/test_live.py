@@ -381,3 +381,9 @@ def test_a_step_of_the_clock_offset_is_reported():
     offset = _clock_step(SimpleNamespace(clock_offset=-0.0100), offset, session, 13.0)
     assert session.events.clock_steps == [{"at_lsl_time_s": 13.0, "step_s": pytest.approx(-0.0205)}]
     assert _clock_step(SimpleNamespace(clock_offset=float("nan")), offset, session, 14.0) == offset
+
+
+def test_an_empty_window_judges_nothing():
+    empty = np.zeros(0)
+    checks = live_checks(empty, empty, empty, empty.astype(bool), empty, empty, empty, empty, memory=5)
+    assert checks.verdict == OK and checks.failed == () and np.isnan(checks.motion)

@@ -60,7 +60,7 @@ class LiveChecks:
     Parameters
     ----------
     motion : float
-        Share of the window's samples informed by the data.
+        Share of the window's samples informed by the data (NaN for an empty window).
     explained : float
         Share of z's variance the one-step prediction explains (NaN without steps).
     tracking : float
@@ -133,7 +133,7 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
     LiveChecks
     """
     ok = np.isfinite(stiffness)
-    motion = float(np.mean(observable & ok)) if len(ok) else 0.0
+    motion = float(np.mean(observable & ok)) if len(ok) else float("nan")      # nothing to judge yet
     informed = observable & ok
     pick = informed if informed.any() else ok
     median = float(np.median(stiffness[pick])) if pick.any() else float("nan")

@@ -390,7 +390,7 @@ def _summary(settings, description, session, stopped, latency, offsets, paths, n
         "noise_refits": ev.refits, "noise_refit_every_s": REFIT_EVERY_S,
         "failed_noise_refits": [{**d, "at_s": d["at_samples"] / fs} for d in ev.failed_refits],
         "last_checks": None if checks is None else {
-            "motion": checks.motion, "torque_explained": _finite(checks.explained),
+            "motion": _finite(checks.motion), "torque_explained": _finite(checks.explained),
             "tracking": _finite(checks.tracking), "moved": _finite(checks.moved),
             "whiteness": _finite(checks.whiteness), "band_width": _finite(checks.band_width),
             "negative_share": checks.negative_share, "verdict": VERDICT_NAMES[checks.verdict],

@@ -35,7 +35,8 @@ def status_line(session, *, stalled_s: float | None = None) -> str:
             parts.append(f"m {m.inertia:.3g} b {m.damping:.3g}")
     checks = session.checks
     if checks is not None:
-        parts.append(f"informed {100 * checks.motion:.0f} %")
+        if np.isfinite(checks.motion):
+            parts.append(f"informed {100 * checks.motion:.0f} %")
         if np.isfinite(checks.explained):
             parts.append(f"explained {100 * checks.explained:.1f} %")
         verdict = VERDICT_NAMES[checks.verdict]
