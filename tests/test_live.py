@@ -387,3 +387,10 @@ def test_an_empty_window_judges_nothing():
     empty = np.zeros(0)
     checks = live_checks(empty, empty, empty, empty.astype(bool), empty, empty, empty, empty, memory=5)
     assert checks.verdict == OK and checks.failed == () and np.isnan(checks.motion)
+
+
+def test_huge_finite_values_are_not_taken_for_missing_ones():
+    session = LiveSession(1000.0, Immediately())
+    big = np.full(10, 1e308)                       # their sum overflows; every one is a number
+    published = session.feed(np.arange(10) / 1000.0, big, big)
+    assert session.events.non_finite == 0 and published.usable is None

@@ -13,6 +13,7 @@ and takes over. Pure numpy: no I/O, no clock (the caller measures times).
 
 from __future__ import annotations
 
+import math
 from concurrent.futures import Future
 from dataclasses import dataclass, field
 
@@ -188,6 +189,7 @@ class LiveSession:
         self._pending_at = 0
         self._pending_kind = "full"
         self._done = 0
+        self._due_for, self._due_s = -1, 0.0
         self._last_time: float | None = None
         self._window = _Window(1)
         self._verdict = NO_ESTIMATE
@@ -205,8 +207,11 @@ class LiveSession:
         # an estimator that came back takes over before these samples (its catch-up ends where the
         # record does now), and before the gaps are judged, by the model that will feed them
         self._take_identification()
-        finite = np.isfinite(angle) & np.isfinite(torque)
-        if not finite.all():
+        finite = None          # rare: then sample by sample
+        if len(angle) and not (math.isfinite(angle.min()) and math.isfinite(angle.max())
+                               and math.isfinite(torque.min()) and math.isfinite(torque.max())):
+            finite = np.isfinite(angle) & np.isfinite(torque)
+        if finite is not None and not finite.all():
             keep = np.flatnonzero(finite)
             inner = self.feed(timestamps[keep], angle[keep], torque[keep])
             values = np.full((len(timestamps), 5), np.nan)
@@ -265,14 +270,18 @@ class LiveSession:
         if self.estimator is not None:
             out = self.estimator.push(y, f)
             values[:, :4] = out.rows[:, :4]
-            self._window.add(out.rows[out.steps])
+            steps = out.steps
+            if steps.any():
+                self._window.add(out.rows[steps])
             self._since_check += len(t)
             fresh = self._verdict == NO_ESTIMATE and np.isfinite(out.rows[-1, 0])     # a first estimate
             if self._since_check >= CHECK_EVERY_S * self.fs or fresh:
                 self._since_check = 0
                 self.events.checks = self._window.checks()
                 self._verdict = self.events.checks.verdict
-            values[:, 4] = np.where(np.isnan(values[:, 0]), NO_ESTIMATE, self._verdict)
+            values[:, 4] = self._verdict
+            if np.isnan(values[0, 0]):        # the estimate's first samples (a prefix): none yet
+                values[np.isnan(values[:, 0]), 4] = NO_ESTIMATE
         self._ask_identification()
 
     def _bridge(self, t_next, y_next, f_next, gap):
@@ -306,7 +315,7 @@ class LiveSession:
         if self.pending is not None:
             return
         n = self.record.total
-        due = identification_due(self._done, warmup_s=self.warmup_s)
+        due = self._due(self._done)
         refit_due = self.model is not None and n - self._pending_at >= REFIT_EVERY_S * self.fs
         # a full identification when due, but never two in a row while a model runs (on a busy
         # machine they take longer than their spacing, and the noise refits would never come)
@@ -349,6 +358,12 @@ class LiveSession:
                                                 "corner_hz": self.model.corner_hz, "warnings": list(found.warnings)})
         else:
             self.events.refits += 1
+
+    def _due(self, done: int) -> float:
+        """:func:`identification_due`, remembered (it is asked for every chunk)."""
+        if self._due_for != done:
+            self._due_for, self._due_s = done, identification_due(done, warmup_s=self.warmup_s)
+        return self._due_s
 
     def _unusable(self, found: LiveIdentification, at: int) -> str | None:
         """Why an identification that came back cannot take over, or None."""
