@@ -182,8 +182,8 @@ def _butterworth(order: int, cutoff_hz: float, fs: float) -> np.ndarray:
 # Central-difference stencils of accuracy order 8 (9 points): the error on a sinusoid of
 # ω·Ts = 0.75 (8 Hz at the paper's 66.7 Hz) is ~(ωTs)⁸/630 ≈ 2·10⁻⁴, against (ωTs)²/6 ≈ 9 %
 # for the three-point difference.
-_FIRST = np.array([1 / 280, -4 / 105, 1 / 5, -4 / 5, 0.0, 4 / 5, -1 / 5, 4 / 105, -1 / 280])
-_SECOND = np.array([-1 / 560, 8 / 315, -1 / 5, 8 / 5, -205 / 72, 8 / 5, -1 / 5, 8 / 315, -1 / 560])
+CENTRAL_FIRST = np.array([1 / 280, -4 / 105, 1 / 5, -4 / 5, 0.0, 4 / 5, -1 / 5, 4 / 105, -1 / 280])
+CENTRAL_SECOND = np.array([-1 / 560, 8 / 315, -1 / 5, 8 / 5, -205 / 72, 8 / 5, -1 / 5, 8 / 315, -1 / 560])
 
 
 def _stencil(x: np.ndarray, kernel: np.ndarray, fallback: np.ndarray) -> np.ndarray:
@@ -217,11 +217,11 @@ def central_derivatives(x: np.ndarray, fs: float, order: int) -> np.ndarray:
     out = np.empty((order + 1, len(x)))
     out[0] = x
     if order >= 1:
-        out[1] = _stencil(x, _FIRST / h, np.gradient(x, h, edge_order=2))
+        out[1] = _stencil(x, CENTRAL_FIRST / h, np.gradient(x, h, edge_order=2))
     if order >= 2:
-        out[2] = _stencil(x, _SECOND / h ** 2, np.gradient(out[1], h, edge_order=2))
+        out[2] = _stencil(x, CENTRAL_SECOND / h ** 2, np.gradient(out[1], h, edge_order=2))
     for j in range(3, order + 1):
-        out[j] = _stencil(out[j - 1], _FIRST / h, np.gradient(out[j - 1], h, edge_order=2))
+        out[j] = _stencil(out[j - 1], CENTRAL_FIRST / h, np.gradient(out[j - 1], h, edge_order=2))
     return out
 
 

@@ -11,6 +11,7 @@ from scipy import signal
 from limbstiff.errors import TrialError
 from limbstiff.files.recording import GrowingTable
 from limbstiff.live import kernel
+from limbstiff.signals import CENTRAL_FIRST, CENTRAL_SECOND
 from limbstiff.live.checks import CAUTION, OK, TRACKING_Z, live_checks
 from limbstiff.live.estimator import LiveEstimator, LiveModel
 from limbstiff.live.session import Immediately, LiveSession, identification_due
@@ -43,8 +44,8 @@ def _expected(model, y, f):
     newest = np.arange(kernel.STENCIL - 1, len(y), model.decimation)     # the sample that completes each step
     centre = newest - 4
     window = np.lib.stride_tricks.sliding_window_view(yf, kernel.STENCIL)[centre - 4]
-    v = window @ kernel._FIRST * FS
-    a = window @ kernel._SECOND * FS ** 2
+    v = window @ CENTRAL_FIRST * FS          # the offline chain's stencils (limbstiff.signals)
+    a = window @ CENTRAL_SECOND * FS ** 2
     z = ff[centre] - model.inertia * a - model.damping * v
     yc = yf[centre]
     g = np.array([yc[i] - yc[max(0, i - model.window + 1):i + 1].mean() for i in range(len(yc))])

@@ -214,11 +214,17 @@ def innovation_statistics(filtered: Filtered, *, inertia: float, damping: float,
     u = np.where(keep, (u - u[keep].mean()) / max(float(u[keep].std()), 1e-300), 0.0)
     v = np.where(keep, (v - v[keep].mean()) / max(float(v[keep].std()), 1e-300), 0.0)
     n, count = len(u), int(keep.sum())
-    acf = [float(np.dot(u[:-k], u[k:]) / count) for k in range(1, min(WHITENESS_LAGS, n - 1) + 1)]
     lags = range(0, min(int(VELOCITY_LAG_S / st.step), n - 1) + 1)
     xcorr = [float(np.dot(u[k:], v[:n - k]) / count) for k in lags]
-    return InnovationStatistics(autocorrelation=max(map(abs, acf), default=0.0),
+    return InnovationStatistics(autocorrelation=largest_autocorrelation(u, count),
                                 velocity_correlation=max(map(abs, xcorr), default=0.0))
+
+
+def largest_autocorrelation(u: np.ndarray, count: int, lags: int = WHITENESS_LAGS) -> float:
+    """Largest |autocorrelation| at lags 1–``lags`` of ``u``, standardised over ``count`` samples
+    (zero where left out), shape (n,): the whiteness statistic of the innovations (0 for n < 2)."""
+    n = len(u)
+    return max((abs(float(np.dot(u[:-k], u[k:]) / count)) for k in range(1, min(lags, n - 1) + 1)), default=0.0)
 
 
 def stiffness_shift(filtered: Filtered, *, inertia: float, damping: float, other: tuple[float, float],

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks.model import WHITENESS_LAGS, largest_autocorrelation
 from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
                               NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, WHITENESS_MAX)
 
@@ -50,7 +51,8 @@ MOTION_MIN = 0.5
 #: Verdict codes of the ``verdict`` channel: no estimate yet (warming up), ok, caution, unreliable.
 NO_ESTIMATE, OK, CAUTION, UNRELIABLE = -1, 0, 1, 2
 VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", OK: "ok", CAUTION: "caution", UNRELIABLE: "unreliable"}
-LAGS = 10
+#: Lags of the whiteness statistic, as offline; a window is judged once it holds more than twice as many steps.
+LAGS = WHITENESS_LAGS
 
 
 @dataclass(frozen=True)
@@ -92,11 +94,12 @@ class LiveChecks:
 
 
 def _whiteness(standardised: np.ndarray) -> float:
-    x = standardised - standardised.mean()
-    denom = float(x @ x)
-    if len(x) <= 2 * LAGS or denom <= 0:
+    """The offline whiteness statistic (:func:`~limbstiff.checks.model.largest_autocorrelation`) of
+    the window's standardised prediction errors (NaN on too few, or on a constant)."""
+    sd = float(standardised.std())
+    if len(standardised) <= 2 * LAGS or not sd > 0:
         return float("nan")
-    return float(max(abs(x[:-k] @ x[k:]) / denom for k in range(1, LAGS + 1)))
+    return largest_autocorrelation((standardised - standardised.mean()) / sd, len(standardised))
 
 
 def _tracking(innovation, innovation_variance, angle, half_width) -> tuple[float, float]:

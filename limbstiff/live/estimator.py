@@ -17,6 +17,7 @@ import numpy as np
 from scipy import signal, stats
 
 from ..estimate.informed import BAND_WIDENING
+from ..signals import CENTRAL_FIRST, CENTRAL_SECOND
 from ..statespace.noise import NoiseLevels
 from ..statespace.steps import DEFLECTION_PERIODS, kalman_decimation
 from . import kernel
@@ -168,8 +169,8 @@ class LiveEstimator:
         step = model.decimation / model.fs
         fading = 0.0 if model.memory_s is None else float(np.expm1(step / model.memory_s))
         self._per_step = np.array([*model.noise.per_step(step), fading])
-        self._first = np.asarray(kernel._FIRST) * model.fs
-        self._second = np.asarray(kernel._SECOND) * model.fs ** 2
+        self._first = CENTRAL_FIRST * model.fs            # the offline chain's stencils, over Ts and Ts²
+        self._second = CENTRAL_SECOND * model.fs ** 2
         self._mech = _mech(model)
         self.reset()
 

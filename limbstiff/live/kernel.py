@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from ..signals import CENTRAL_FIRST
 from ..statespace import kernels
 
 #: Slots of ``istate``: samples seen, ring position, samples to the next step, deflection ring
@@ -44,9 +45,8 @@ OUT = ("stiffness", "lo", "hi", "observable", "var", "e", "s_var", "z", "y", "g"
 #: ``mech``: m, b, their covariance (c_mm, c_mb, c_bb), the band's normal quantile, and the largest
 #: state variance still informed (inf: every sample).
 MECH = ("m", "b", "c_mm", "c_mb", "c_bb", "quantile", "informed_var")
-STENCIL = 9
-_FIRST = np.array([1 / 280, -4 / 105, 1 / 5, -4 / 5, 0.0, 4 / 5, -1 / 5, 4 / 105, -1 / 280])
-_SECOND = np.array([-1 / 560, 8 / 315, -1 / 5, 8 / 5, -205 / 72, 8 / 5, -1 / 5, 8 / 315, -1 / 560])
+#: Samples of the offline chain's central-difference stencils (:data:`limbstiff.signals.CENTRAL_FIRST`).
+STENCIL = len(CENTRAL_FIRST)
 
 
 def state_size(sections: int, window: int) -> int:

@@ -33,9 +33,8 @@ from ..files.recording import GrowingTable, SegmentedRecording
 from ..protocol import Protocol
 from ..result import software
 from .checks import VERDICT_NAMES
-from .identify import identify_live, refit_live
 from .latency import Latency
-from .session import MEMORY_PERIODS, REFIT_EVERY_S, WARMUP_S, LiveSession
+from .session import MEMORY_PERIODS, REFIT_EVERY_S, WARMUP_S, Identifier, LiveSession
 from .status import status_line
 
 LIVE_COLUMNS = ("time_s", "lsl_time_s", "stiffness", "stiffness_lo", "stiffness_hi", "observable", "verdict")
@@ -83,23 +82,20 @@ class StreamSettings:
     pdf: bool = True
 
 
-class WorkerIdentifier:
-    """Runs :func:`~limbstiff.live.identify.identify_live` in one worker process (spawned, so that
-    it shares no threads or sockets with the stream, and the loop never waits on the GIL for it).
+class WorkerIdentifier(Identifier):
+    """Runs the identifications in one worker process (spawned, so that it shares no threads or
+    sockets with the stream, and the loop never waits on the GIL for it).
 
     Where no process can be started (a script without the ``if __name__ == "__main__":`` guard that
     spawning needs), it goes on in a thread and says so in :attr:`note`."""
 
     def __init__(self, **options):
-        self.options = {"memory_periods": MEMORY_PERIODS, **options}
+        super().__init__(**options)
         self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"), initializer=_ignore_interrupt)
         self.note: str | None = None
         self.pool.submit(_warm_up)      # the worker's imports and compiled kernels, during the warm-up
 
-    def submit(self, angle, torque, fs):
-        return self._submit(identify_live, angle, torque, fs=fs, **self.options)
-
-    def _submit(self, call, *args, **kwargs):
+    def _run(self, call, *args, **kwargs):
         try:
             return self.pool.submit(call, *args, **kwargs)
         except (BrokenProcessPool, RuntimeError) as exc:
@@ -108,10 +104,6 @@ class WorkerIdentifier:
             self.note = (f"the identification ran in a thread (no worker process: {type(exc).__name__}); "
                          "the live loop shared the processor with it")
             return self.pool.submit(call, *args, **kwargs)
-
-    def refit(self, angle, torque, fs, previous):
-        return self._submit(refit_live, angle, torque, previous=previous, memory_periods=self.options["memory_periods"],
-                            variant=self.options.get("variant") or "external")
 
     def close(self):
         self.pool.shutdown(wait=False, cancel_futures=True)

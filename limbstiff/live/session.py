@@ -55,21 +55,35 @@ def identification_due(done: int, *, warmup_s: float = WARMUP_S) -> float:
     return warmup_s * 2.0 ** doublings + (done - doublings) * REIDENTIFY_EVERY_S
 
 
-class Immediately:
-    """An identifier that identifies at once, in this process (replays, tests)."""
+class Identifier:
+    """How the session asks for a model: :meth:`submit` (a full identification) and :meth:`refit`
+    (the noise levels only), each returning a ``Future``; :meth:`_run` says where they run.
+
+    Parameters
+    ----------
+    **options
+        Keywords of :func:`~limbstiff.live.identify.identify_live` (protocol, seed, name, variant,
+        memory_periods: default :data:`MEMORY_PERIODS`).
+    """
 
     def __init__(self, **options):
         self.options = {"memory_periods": MEMORY_PERIODS, **options}
 
     def submit(self, angle, torque, fs) -> Future:
-        return self._now(identify_live, angle, torque, fs=fs, **self.options)
+        return self._run(identify_live, angle, torque, fs=fs, **self.options)
 
     def refit(self, angle, torque, fs, previous) -> Future:
-        return self._now(refit_live, angle, torque, previous=previous, memory_periods=self.options["memory_periods"],
+        return self._run(refit_live, angle, torque, previous=previous, memory_periods=self.options["memory_periods"],
                          variant=self.options.get("variant") or "external")
 
-    @staticmethod
-    def _now(call, *args, **kwargs) -> Future:
+    def _run(self, call, *args, **kwargs) -> Future:
+        raise NotImplementedError
+
+
+class Immediately(Identifier):
+    """An identifier that identifies at once, in this process (replays, tests)."""
+
+    def _run(self, call, *args, **kwargs) -> Future:
         done: Future = Future()
         try:
             done.set_result(call(*args, **kwargs))
@@ -169,8 +183,8 @@ class LiveSession:
     ----------
     fs : float, Hz
         The stream's nominal rate.
-    identifier : object with ``submit(angle, torque, fs) -> Future``
-        Runs :func:`~limbstiff.live.identify.identify_live` (:class:`Immediately`, or a worker process).
+    identifier : Identifier
+        Runs the identifications (:class:`Immediately`, or a worker process).
     warmup_s : float, s
         Record before the first identification.
     max_gap_s : float, optional, s
@@ -336,14 +350,12 @@ class LiveSession:
         self.pending = None
         self._done += full
         exc = future.exception()
-        if exc is not None:        # said on the status line and in stream.json; the estimate goes on
+        found: LiveIdentification | None = None if exc is not None else future.result()
+        if exc is not None:
             problem = str(exc) if isinstance(exc, LimbstiffError) else f"{type(exc).__name__}: {exc}"
-            (self.events.identifications if full else self.events.failed_refits).append(
-                {"at_samples": at, "error": problem})
-            return
-        found: LiveIdentification = future.result()
-        problem = self._unusable(found, at)
-        if problem:
+        else:
+            problem = self._unusable(found, at)
+        if problem:                # said on the status line and in stream.json; the estimate goes on
             (self.events.identifications if full else self.events.failed_refits).append(
                 {"at_samples": at, "error": problem})
             return
@@ -419,6 +431,6 @@ class _Window:
         return self.ring[(self.pos - k + np.arange(k)) % len(self.ring)]
 
     def checks(self) -> LiveChecks:
-        rows = self.ring[:self.count] if self.count < len(self.ring) else np.roll(self.ring, -self.pos, axis=0)
+        rows = self.tail(self.count)
         return live_checks(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3] > 0, rows[:, 5], rows[:, 6], rows[:, 7],
                            rows[:, 8], memory=self.memory)
