@@ -25,6 +25,14 @@ Over the last :data:`WINDOW_PERIODS` motion periods of model steps (at least :da
   wrist and ankle the band held the truth on 70–94 % of the samples said ``ok`` before this check
   and on 94–95 % after it; it does not help where the live model itself is off (the independent
   simulator's co-contraction, gait and actuator courses: 34–61 %);
+* hindsight — each full identification also smooths its record offline (the analysis's own
+  Kalman/RTS estimate, zero-phase filtered, with the identification's m, b and noise levels), which
+  does not lag. Over the last :data:`HINDSIGHT_S` it had, the share of informed published samples
+  whose band missed that smoothed course is compared with what a calibrated band allows
+  (:attr:`Hindsight.limit`); above it, ``caution`` until the next identification: the band has
+  been too narrow. It looks back (by up to a minute), which no causal check can: on replays of
+  limbstiff's simulated elbow ramps the band held the truth on 34–39 % of a 20 s record and missed
+  the smoothed course on 59–63 %; on the independent simulator's VSA 28 % and 72 %;
 * the band — median width over |median stiffness| above :data:`~limbstiff.checks.verdict.BAND_WIDTH_MAX`
   is ``caution``, above :data:`~limbstiff.checks.verdict.BAND_ZERO_MAX` ``unreliable``; a share of
   negative stiffness above :data:`~limbstiff.checks.verdict.NEGATIVE_SHARE_MAX` is ``unreliable``.
@@ -53,6 +61,12 @@ NO_ESTIMATE, OK, CAUTION, UNRELIABLE = -1, 0, 1, 2
 VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", OK: "ok", CAUTION: "caution", UNRELIABLE: "unreliable"}
 #: Lags of the whiteness statistic, as offline; a window is judged once it holds more than twice as many steps.
 LAGS = WHITENESS_LAGS
+#: Seconds of the record before an identification that its smoothed course judges the published band on.
+HINDSIGHT_S = 60.0
+#: Binomial standard errors the hindsight share may exceed 1 − ci_level by (one-sided 2.3 %; not fitted).
+HINDSIGHT_Z = 2.0
+#: The fewest independent comparisons (span over two memories) the hindsight check judges.
+HINDSIGHT_MIN_MEMORIES = 2.0
 
 
 @dataclass(frozen=True)
@@ -76,6 +90,8 @@ class LiveChecks:
         Median band width over |median stiffness|.
     negative_share : float
         Share of informed samples with a negative stiffness.
+    hindsight : Hindsight or None
+        The last full identification's look back (None before one could look back).
     verdict : int
         :data:`OK`, :data:`CAUTION` or :data:`UNRELIABLE`.
     failed : tuple of str
@@ -89,8 +105,79 @@ class LiveChecks:
     whiteness: float
     band_width: float
     negative_share: float
+    hindsight: "Hindsight | None"
     verdict: int
     failed: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Hindsight:
+    """The published band against the smoothed stiffness of the same record.
+
+    Parameters
+    ----------
+    outside : float
+        Share of the informed published samples whose band misses the smoothed course.
+    samples : int
+        Samples compared.
+    independent : float
+        About how many independent comparisons they are: their span over two memories (the
+        causal estimate's errors are correlated over its memory).
+    ci_level : float
+        The band's level.
+    """
+
+    outside: float
+    samples: int
+    independent: float
+    ci_level: float
+
+    @property
+    def limit(self) -> float:
+        """The share outside above which the band is too narrow: a calibrated band misses the
+        truth on 1 − ci_level of the samples (the smoothed course, closer to the causal one than
+        the truth, on fewer), plus :data:`HINDSIGHT_Z` binomial standard errors over
+        :attr:`independent` comparisons."""
+        p = 1.0 - self.ci_level
+        return p + HINDSIGHT_Z * float(np.sqrt(p * (1.0 - p) / max(self.independent, 1.0)))
+
+    @property
+    def too_narrow(self) -> bool:
+        return self.outside > self.limit
+
+    def to_dict(self) -> dict:
+        return {"outside": self.outside, "limit": self.limit, "samples": self.samples,
+                "independent": self.independent, "too_narrow": self.too_narrow}
+
+
+def hindsight(smoothed: np.ndarray, lo: np.ndarray, hi: np.ndarray, *, memory_samples: int,
+              ci_level: float) -> Hindsight | None:
+    """How often the published band missed the smoothed course (:class:`Hindsight`).
+
+    Parameters
+    ----------
+    smoothed : ndarray, shape (n,), N·m/rad (N/m)
+        The smoothed stiffness at the samples compared.
+    lo, hi : ndarray, shape (n,)
+        The band published at the same samples; NaN where none was or the data did not inform it.
+    memory_samples : int
+        The live estimate's memory in samples.
+    ci_level : float
+
+    Returns
+    -------
+    Hindsight or None
+        None with fewer than :data:`HINDSIGHT_MIN_MEMORIES` independent comparisons.
+    """
+    use = np.flatnonzero(np.isfinite(lo) & np.isfinite(hi) & np.isfinite(smoothed))
+    if not len(use):
+        return None
+    independent = (use[-1] - use[0] + 1) / (2.0 * max(memory_samples, 1))
+    if independent < HINDSIGHT_MIN_MEMORIES:
+        return None
+    miss = (smoothed[use] < lo[use]) | (smoothed[use] > hi[use])
+    return Hindsight(outside=float(miss.mean()), samples=int(len(use)), independent=float(independent),
+                     ci_level=float(ci_level))
 
 
 def _whiteness(standardised: np.ndarray) -> float:
@@ -117,7 +204,7 @@ def _tracking(innovation, innovation_variance, angle, half_width) -> tuple[float
 
 def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observable: np.ndarray,
                 innovation: np.ndarray, innovation_variance: np.ndarray, measured: np.ndarray,
-                angle: np.ndarray, *, memory: int | None = None) -> LiveChecks:
+                angle: np.ndarray, *, memory: int | None = None, looked_back: Hindsight | None = None) -> LiveChecks:
     """The checks over one window.
 
     Parameters
@@ -130,6 +217,8 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
     memory : int, optional
         The estimate's memory in model steps (the ``changing`` check; not made without it). The
         stiffness arrays must then be at the same steps, in order.
+    looked_back : Hindsight, optional
+        The last identification's look back (the ``hindsight`` check; not made without it).
 
     Returns
     -------
@@ -164,6 +253,8 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
         severity["tracking"] = CAUTION
     if moved > 1.0:
         severity["changing"] = CAUTION
+    if looked_back is not None and looked_back.too_narrow:
+        severity["hindsight"] = CAUTION
     if white > WHITENESS_MAX and not explained > 1.0 - NEGLIGIBLE_RESIDUAL:
         severity["noise"] = CAUTION
     if width > BAND_ZERO_MAX:
@@ -174,4 +265,4 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
         severity["negative_stiffness"] = UNRELIABLE
     verdict = max(severity.values(), default=OK)
     return LiveChecks(motion=motion, explained=explained, tracking=tracking, moved=moved, whiteness=white, band_width=width,
-                      negative_share=negative, verdict=verdict, failed=tuple(severity))
+                      negative_share=negative, hindsight=looked_back, verdict=verdict, failed=tuple(severity))

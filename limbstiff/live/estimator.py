@@ -54,6 +54,9 @@ class LiveModel:
         Level of the band.
     identified_s : float, s
         Seconds of data the model was identified from.
+    smoother_noise : NoiseLevels or None
+        The noise levels the identification fitted on the zero-phase signals (the offline
+        smoother's, for the ``hindsight`` check; None: fitted when needed).
     memory_s : float or None, s
         The stiffness's fading memory T: its variance grows by exp(Δt/T) per step on top of the
         model's walk, so that data older than T weigh less than e⁻¹ whatever the noise levels
@@ -72,6 +75,7 @@ class LiveModel:
     ci_level: float = 0.9
     identified_s: float = 0.0
     memory_s: float | None = None
+    smoother_noise: NoiseLevels | None = None
 
     @property
     def decimation(self) -> int:

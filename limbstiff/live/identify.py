@@ -6,7 +6,7 @@ m and b with their emcee posterior (:func:`~limbstiff.mechanics.identification.i
 — then fits the model's noise levels by maximum likelihood on the causal chain's own steps (its
 filter is causal, so its noise is coloured differently from the zero-phase chain's) and runs the
 chain over the record, so that the estimator it returns carries on from the last sample given.
-It is slow (seconds): ``limbstiff stream`` calls it in a worker process while the live estimate
+It also smooths the record as the offline analysis does, for the live ``hindsight`` check. It is slow (seconds): ``limbstiff stream`` calls it in a worker process while the live estimate
 goes on with the model it has (:mod:`limbstiff.live.session`). Pure numpy/scipy: no I/O.
 """
 
@@ -17,11 +17,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..analysis import filter_for_model
+from ..estimate import estimators
+from ..filtered import filter_trial
 from ..estimate.kalman import data_guess, fit_noise_levels
 from ..mechanics.identification import identify_mechanics
 from ..protocol import Protocol
 from ..statespace.steps import initial_cov, model_steps
 from ..trial import Trial
+from .checks import HINDSIGHT_S
 from .estimator import LiveEstimator, LiveModel
 
 #: Seconds of the most recent record the live model is identified from: m and b are constant, so
@@ -49,6 +52,10 @@ class LiveIdentification:
     variant : {"external", "direct"}
     warnings : tuple of str
         The identification's warnings (and the trial's).
+    smoothed : ndarray, shape (k,), or None
+        The offline smoothed stiffness over the record's last :data:`~limbstiff.live.checks.HINDSIGHT_S`
+        (at most), ending at its last sample; NaN over the last memory and the filter's edge,
+        where it has no more future than the live estimate (the ``hindsight`` check).
     """
 
     model: LiveModel
@@ -56,6 +63,7 @@ class LiveIdentification:
     samples: int
     variant: str
     warnings: tuple[str, ...]
+    smoothed: np.ndarray | None = None
 
 
 def _trial(name: str, fs: float, angle: np.ndarray, torque: np.ndarray, variant: str) -> Trial:
@@ -126,14 +134,30 @@ def identify_live(angle: np.ndarray, torque: np.ndarray, *, fs: float, protocol:
     p11, _, p22 = initial_cov(angle, torque)
     model = LiveModel(fs=fs, corner_hz=filtered.cutoff_hz, motion_hz=filtered.motion_hz, noise=noise,
                       inertia=float(m), damping=float(b), covariance=cov, initial_cov=(p11, p22),
-                      typical_variance=None, ci_level=protocol.ci_level, identified_s=keep / fs)
+                      typical_variance=None, ci_level=protocol.ci_level, identified_s=keep / fs,
+                      smoother_noise=noise)
     if noise is None:      # the direct variant: no identification fitted them
         noise = data_guess(model_steps(angle, torque, sample_period=1 / fs, decimation=model.decimation, edge=0,
                                        motion_frequency=model.motion_hz))
         model = replace(model, noise=noise)
     est = _fitted_estimator(model, angle, torque, noise, memory_periods)
     return LiveIdentification(model=est.model, estimator=est, samples=keep, variant=filtered.variant,
-                              warnings=tuple(trial.warnings) + tuple(warnings))
+                              warnings=tuple(trial.warnings) + tuple(warnings),
+                              smoothed=_smoothed_tail(filtered, est.model))
+
+
+def _smoothed_tail(filtered, model: LiveModel) -> np.ndarray:
+    """The analysis's Kalman/RTS stiffness over the record (zero-phase, with the identification's
+    m, b and noise levels; the direct variant fits its own), its last :data:`HINDSIGHT_S`, NaN
+    over the last memory and filter edge."""
+    external = filtered.variant == "external"
+    mech = {"inertia": model.inertia, "damping": model.damping, "noise": model.smoother_noise} if external else {}
+    course = estimators.kalman(filtered, **mech).stiffness
+    tail = course[-int(HINDSIGHT_S * model.fs):].copy()
+    memory_s = model.memory_s if model.memory_s is not None else 0.0
+    unjudged = filtered.edge + int(round(memory_s * model.fs))
+    tail[max(len(tail) - unjudged, 0):] = np.nan
+    return tail
 
 
 def _fitted_estimator(model: LiveModel, angle, torque, guess, memory_periods) -> LiveEstimator:
@@ -151,7 +175,8 @@ def _fitted_estimator(model: LiveModel, angle, torque, guess, memory_periods) ->
 
 
 def refit_live(angle: np.ndarray, torque: np.ndarray, *, previous: LiveModel,
-               memory_periods: float | None = None, variant: str = "external") -> LiveIdentification:
+               memory_periods: float | None = None, variant: str = "external",
+               protocol: Protocol | None = None) -> LiveIdentification:
     """The noise levels refitted on the last :data:`REFIT_RECORD_S` of the record, the corner, m and
     b kept: what the live model does between identifications, so that its stiffness walk follows
     the record (fitted on a first stretch where the stiffness held still, the walk is too small to
@@ -166,6 +191,8 @@ def refit_live(angle: np.ndarray, torque: np.ndarray, *, previous: LiveModel,
         The model whose corner, m, b and their covariance are kept (and whose noise levels start the fit).
     memory_periods : float, optional
     variant : {"external", "direct"}
+    protocol : Protocol, optional
+        The filter's settings for the smoothed course (the ``hindsight`` check), at the model's corner.
 
     Returns
     -------
@@ -177,4 +204,7 @@ def refit_live(angle: np.ndarray, torque: np.ndarray, *, previous: LiveModel,
     model = replace(previous, initial_cov=(p11, p22), typical_variance=None, memory_s=None,
                     identified_s=keep / previous.fs)
     est = _fitted_estimator(model, angle, torque, previous.noise, memory_periods)
-    return LiveIdentification(model=est.model, estimator=est, samples=keep, variant=variant, warnings=())
+    filtered = filter_trial(_trial("live", previous.fs, angle, torque, variant), protocol or Protocol(),
+                            corner_hz=previous.corner_hz)
+    return LiveIdentification(model=est.model, estimator=est, samples=keep, variant=variant, warnings=(),
+                              smoothed=_smoothed_tail(filtered, est.model))

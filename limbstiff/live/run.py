@@ -385,7 +385,9 @@ def _summary(settings, description, session, stopped, latency, offsets, paths, n
             "motion": _finite(checks.motion), "torque_explained": _finite(checks.explained),
             "tracking": _finite(checks.tracking), "moved": _finite(checks.moved),
             "whiteness": _finite(checks.whiteness), "band_width": _finite(checks.band_width),
-            "negative_share": checks.negative_share, "verdict": VERDICT_NAMES[checks.verdict],
+            "negative_share": checks.negative_share,
+            "hindsight": None if checks.hindsight is None else checks.hindsight.to_dict(),
+            "verdict": VERDICT_NAMES[checks.verdict],
             "failed": list(checks.failed)},
         "latency": latency.summary(), "notes": notes, "seed": settings.seed, "software": software(),
     }

@@ -21,7 +21,8 @@ import numpy as np
 
 from ..errors import LimbstiffError
 from ..analysis import OBSERVABLE_PERIODS
-from .checks import NO_ESTIMATE, WINDOW_MIN_S, WINDOW_PERIODS, LiveChecks, live_checks
+from .buffers import PublishedBand, Record, Window
+from .checks import HINDSIGHT_S, NO_ESTIMATE, WINDOW_MIN_S, WINDOW_PERIODS, Hindsight, LiveChecks, hindsight
 from .identify import LONGEST_RECORD_S, REFIT_RECORD_S, LiveIdentification, identify_live, refit_live
 
 #: The first identification after this many seconds of record (``--warmup``), then each time the
@@ -74,7 +75,7 @@ class Identifier:
 
     def refit(self, angle, torque, fs, previous) -> Future:
         return self._run(refit_live, angle, torque, previous=previous, memory_periods=self.options["memory_periods"],
-                         variant=self.options.get("variant") or "external")
+                         variant=self.options.get("variant") or "external", protocol=self.options.get("protocol"))
 
     def _run(self, call, *args, **kwargs) -> Future:
         raise NotImplementedError
@@ -90,50 +91,6 @@ class Immediately(Identifier):
         except LimbstiffError as exc:
             done.set_exception(exc)
         return done
-
-
-class _Record:
-    """SI arrays of the current segment (since the start or the last break): its last ``keep``
-    samples at least (an identification looks no further back), so that a session of hours holds
-    and copies minutes, not hours. Positions are counted from the segment's start (``total``)."""
-
-    def __init__(self, keep: int):
-        self.keep = max(int(keep), 1)
-        self.angle = np.empty(4096)
-        self.torque = np.empty(4096)
-        self.n = 0              # samples held
-        self.offset = 0         # samples dropped from the front
-
-    @property
-    def total(self) -> int:
-        """Samples of the segment so far."""
-        return self.offset + self.n
-
-    def last(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """Copies of the last ``k`` samples held (fewer when fewer are)."""
-        first = max(0, self.n - k)
-        return self.angle[first:self.n].copy(), self.torque[first:self.n].copy()
-
-    def since(self, position: int) -> tuple[np.ndarray, np.ndarray]:
-        """The samples from segment position ``position`` on (views)."""
-        first = max(0, position - self.offset)
-        return self.angle[first:self.n], self.torque[first:self.n]
-
-    def append(self, angle, torque):
-        end = self.n + len(angle)
-        if end > len(self.angle):
-            size = max(end, 2 * len(self.angle))
-            self.angle = np.resize(self.angle, size)
-            self.torque = np.resize(self.torque, size)
-        self.angle[self.n:end] = angle
-        self.torque[self.n:end] = torque
-        self.n = end
-        if self.n > 2 * self.keep:
-            drop = self.n - self.keep
-            self.angle[:self.keep] = self.angle[drop:self.n]
-            self.torque[:self.keep] = self.torque[drop:self.n]
-            self.offset += drop
-            self.n = self.keep
 
 
 @dataclass
@@ -195,7 +152,7 @@ class LiveSession:
     def __init__(self, fs: float, identifier, *, warmup_s: float = WARMUP_S, max_gap_s: float | None = None):
         self.fs, self.identifier, self.warmup_s = float(fs), identifier, float(warmup_s)
         self.max_gap_s = max_gap_s
-        self.record = _Record(LONGEST_RECORD_S * self.fs)
+        self.record = Record(LONGEST_RECORD_S * self.fs)
         self.events = SessionEvents()
         self.estimator = None
         self.model = None
@@ -205,9 +162,11 @@ class LiveSession:
         self._done = 0
         self._due_for, self._due_s = -1, 0.0
         self._last_time: float | None = None
-        self._window = _Window(1)
+        self._window = Window(1)
         self._verdict = NO_ESTIMATE
         self._since_check = 0
+        self._band = PublishedBand(int(2 * HINDSIGHT_S * self.fs))
+        self._looked_back: Hindsight | None = None
         self.last: np.ndarray | None = None
 
     def feed(self, timestamps: np.ndarray, angle: np.ndarray, torque: np.ndarray) -> Published:
@@ -280,10 +239,14 @@ class LiveSession:
             elif gap > 1.5 / self.fs:
                 self._bridge(t[0], y[0], f[0], gap)
         self._last_time = float(t[-1])
+        position = self.record.total
         self.record.append(y, f)
-        if self.estimator is not None:
+        if self.estimator is None:
+            self._band.add(position, None, len(t))
+        else:
             out = self.estimator.push(y, f)
             values[:, :4] = out.rows[:, :4]
+            self._band.add(position, out.rows)
             steps = out.steps
             if steps.any():
                 self._window.add(out.rows[steps])
@@ -291,7 +254,7 @@ class LiveSession:
             fresh = self._verdict == NO_ESTIMATE and np.isfinite(out.rows[-1, 0])     # a first estimate
             if self._since_check >= CHECK_EVERY_S * self.fs or fresh:
                 self._since_check = 0
-                self.events.checks = self._window.checks()
+                self.events.checks = self._window.checks(self._looked_back)
                 self._verdict = self.events.checks.verdict
             values[:, 4] = self._verdict
             if np.isnan(values[0, 0]):        # the estimate's first samples (a prefix): none yet
@@ -309,6 +272,7 @@ class LiveSession:
         w = np.arange(1, missing + 1) / (missing + 1)
         y = self.record.angle[self.record.n - 1] * (1 - w) + y_next * w
         f = self.record.torque[self.record.n - 1] * (1 - w) + f_next * w
+        self._band.add(self.record.total, None, missing)        # not published: not judged
         self.record.append(y, f)
         if self.estimator is not None:
             self.estimator.push(y, f)
@@ -317,7 +281,9 @@ class LiveSession:
         """A gap too long to bridge: the estimate starts again (the model is kept)."""
         self.events.breaks.append((before, after))
         self.events.dropped_samples += max(int(round((after - before) * self.fs)) - 1, 0)
-        self.record = _Record(LONGEST_RECORD_S * self.fs)
+        self.record = Record(LONGEST_RECORD_S * self.fs)
+        self._band = PublishedBand(len(self._band.rows))
+        self._looked_back = None
         self._done = 0 if self.model is None else 1
         self.pending, self._pending_at = None, 0
         if self.estimator is not None:
@@ -362,14 +328,29 @@ class LiveSession:
         est = found.estimator
         est.push(*self.record.since(at))        # catch up with the samples that came meanwhile
         self.estimator, self.model = est, est.model
+        looked = self._look_back(found.smoothed, at)
         if full:
             self._window = self._new_window(keep=self._window)
             direct = found.variant == "direct"      # the elastic torque is measured: no m, b
             self.events.identifications.append({"at_samples": at, "inertia": None if direct else self.model.inertia,
                                                 "damping": None if direct else self.model.damping,
-                                                "corner_hz": self.model.corner_hz, "warnings": list(found.warnings)})
+                                                "corner_hz": self.model.corner_hz, "warnings": list(found.warnings),
+                                                "hindsight": None if looked is None else looked.to_dict()})
         else:
             self.events.refits += 1
+
+    def _look_back(self, smoothed: np.ndarray | None, at: int) -> Hindsight | None:
+        """The band published before segment position ``at`` against the identification's smoothed
+        course (kept for the checks until the next identification that can look back)."""
+        if smoothed is None:
+            return None
+        lo, hi = self._band.between(at - len(smoothed), at)
+        m = self.model
+        memory_s = m.memory_s if m.memory_s is not None else MEMORY_PERIODS / m.motion_hz
+        found = hindsight(smoothed, lo, hi, memory_samples=int(round(memory_s * self.fs)), ci_level=m.ci_level)
+        if found is not None:
+            self._looked_back = found
+        return found
 
     def _due(self, done: int) -> float:
         """:func:`identification_due`, remembered (it is asked for every chunk)."""
@@ -390,12 +371,12 @@ class LiveSession:
         seconds = max(WINDOW_PERIODS / self.model.motion_hz, WINDOW_MIN_S)
         return int(seconds * self.fs / self.model.decimation)
 
-    def _new_window(self, keep: "_Window | None" = None) -> "_Window":
+    def _new_window(self, keep: "Window | None" = None) -> "Window":
         """A window for the model now; with the steps of ``keep`` when they are the same steps (the
         checks then look back across a take-over, which a change that starts then needs)."""
         m = self.model
         memory = None if m.memory_s is None else max(1, int(round(m.memory_s * m.fs / m.decimation)))
-        window = _Window(self._window_steps(), memory)
+        window = Window(self._window_steps(), memory)
         if keep is not None and keep.count and keep.decimation == m.decimation:
             window.add(keep.tail(keep.count))
         window.decimation = m.decimation
@@ -405,32 +386,3 @@ class LiveSession:
     def checks(self) -> LiveChecks | None:
         """The last checks made."""
         return self.events.checks
-
-
-class _Window:
-    """The model steps of the last window (rows of :data:`~limbstiff.live.kernel.OUT`), in a ring."""
-
-    def __init__(self, capacity: int, memory: int | None = None):
-        self.ring = np.empty((max(capacity, 1), 10))
-        self.pos = self.count = 0
-        self.memory = memory
-        self.decimation = 0
-
-    def add(self, rows: np.ndarray):
-        size = len(self.ring)
-        rows = rows[-size:]
-        k = len(rows)
-        first = min(k, size - self.pos)
-        self.ring[self.pos:self.pos + first] = rows[:first]
-        self.ring[:k - first] = rows[first:]
-        self.pos = (self.pos + k) % size
-        self.count = min(self.count + k, size)
-
-    def tail(self, k: int) -> np.ndarray:
-        """The last ``k`` rows held, in order."""
-        return self.ring[(self.pos - k + np.arange(k)) % len(self.ring)]
-
-    def checks(self) -> LiveChecks:
-        rows = self.tail(self.count)
-        return live_checks(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3] > 0, rows[:, 5], rows[:, 6], rows[:, 7],
-                           rows[:, 8], memory=self.memory)
