@@ -1,4 +1,4 @@
-"""The checks a live estimate can make causally, and the verdict code it publishes.
+"""The checks a live estimate can make causally, one that looks back, and the verdict code it publishes.
 
 Over the last :data:`WINDOW_PERIODS` motion periods of model steps (at least :data:`WINDOW_MIN_S`):
 
@@ -25,14 +25,18 @@ Over the last :data:`WINDOW_PERIODS` motion periods of model steps (at least :da
   wrist and ankle the band held the truth on 70–94 % of the samples said ``ok`` before this check
   and on 94–95 % after it; it does not help where the live model itself is off (the independent
   simulator's co-contraction, gait and actuator courses: 34–61 %);
-* hindsight — each full identification also smooths its record offline (the analysis's own
-  Kalman/RTS estimate, zero-phase filtered, with the identification's m, b and noise levels), which
-  does not lag. Over the last :data:`HINDSIGHT_S` it had, the share of informed published samples
-  whose band missed that smoothed course is compared with what a calibrated band allows
-  (:attr:`Hindsight.limit`); above it, ``caution`` until the next identification: the band has
-  been too narrow. It looks back (by up to a minute), which no causal check can: on replays of
-  limbstiff's simulated elbow ramps the band held the truth on 34–39 % of a 20 s record and missed
-  the smoothed course on 59–63 %; on the independent simulator's VSA 28 % and 72 %;
+* hindsight — each identification and noise refit also smooths its record as the offline
+  analysis does (zero-phase filtered, the identification's m, b and noise levels), which does not
+  lag. Over one checks window (:func:`window_s`) ending a memory and the filter's edge before its
+  record's end, the share of the informed published samples whose band missed that smoothed
+  course is compared with what a calibrated band allows (:attr:`Hindsight.limit`); above it,
+  ``caution`` until a later look back says otherwise: the band has been too narrow. It looks back
+  (by the memory and the edge, and the refit's spacing), which no causal check can. On
+  limbstiff's simulated elbow ramp (6 → 30 N·m/rad from 8 to 22 s) the band missed the smoothed
+  course on 58–90 % of the window's samples from 14 to 20 s (limit 48 %), and on 0–2 % once the
+  window had left the ramp; 0 % on the independent simulator's constant elbows. Where the smoother
+  is off as well (the independent co-contraction and gait courses) it cannot tell, and a slow
+  motion (0.24 Hz: a 42 s window and 8 s memory) leaves a short record no look back at all;
 * the band — median width over |median stiffness| above :data:`~limbstiff.checks.verdict.BAND_WIDTH_MAX`
   is ``caution``, above :data:`~limbstiff.checks.verdict.BAND_ZERO_MAX` ``unreliable``; a share of
   negative stiffness above :data:`~limbstiff.checks.verdict.NEGATIVE_SHARE_MAX` is ``unreliable``.
@@ -61,12 +65,15 @@ NO_ESTIMATE, OK, CAUTION, UNRELIABLE = -1, 0, 1, 2
 VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", OK: "ok", CAUTION: "caution", UNRELIABLE: "unreliable"}
 #: Lags of the whiteness statistic, as offline; a window is judged once it holds more than twice as many steps.
 LAGS = WHITENESS_LAGS
-#: Seconds of the record before an identification that its smoothed course judges the published band on.
-HINDSIGHT_S = 60.0
 #: Binomial standard errors the hindsight share may exceed 1 − ci_level by (one-sided 2.3 %; not fitted).
 HINDSIGHT_Z = 2.0
 #: The fewest independent comparisons (span over two memories) the hindsight check judges.
 HINDSIGHT_MIN_MEMORIES = 2.0
+
+
+def window_s(motion_hz: float) -> float:
+    """The checks' window, s: :data:`WINDOW_PERIODS` motion periods, at least :data:`WINDOW_MIN_S`."""
+    return max(WINDOW_PERIODS / motion_hz, WINDOW_MIN_S)
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from ..mechanics.identification import identify_mechanics
 from ..protocol import Protocol
 from ..statespace.steps import initial_cov, model_steps
 from ..trial import Trial
-from .checks import HINDSIGHT_S
+from .checks import window_s
 from .estimator import LiveEstimator, LiveModel
 
 #: Seconds of the most recent record the live model is identified from: m and b are constant, so
@@ -53,9 +53,10 @@ class LiveIdentification:
     warnings : tuple of str
         The identification's warnings (and the trial's).
     smoothed : ndarray, shape (k,), or None
-        The offline smoothed stiffness over the record's last :data:`~limbstiff.live.checks.HINDSIGHT_S`
-        (at most), ending at its last sample; NaN over the last memory and the filter's edge,
-        where it has no more future than the live estimate (the ``hindsight`` check).
+        The offline smoothed stiffness over the record's last checks window
+        (:func:`~limbstiff.live.checks.window_s`) and the memory and filter edge after it, ending at
+        its last sample; NaN over that memory and edge, where it has no more future than the live
+        estimate (the ``hindsight`` check).
     """
 
     model: LiveModel
@@ -148,14 +149,14 @@ def identify_live(angle: np.ndarray, torque: np.ndarray, *, fs: float, protocol:
 
 def _smoothed_tail(filtered, model: LiveModel) -> np.ndarray:
     """The analysis's Kalman/RTS stiffness over the record (zero-phase, with the identification's
-    m, b and noise levels; the direct variant fits its own), its last :data:`HINDSIGHT_S`, NaN
-    over the last memory and filter edge."""
+    m, b and noise levels; the direct variant fits its own): a checks window and then the last
+    memory and filter edge, NaN over those."""
     external = filtered.variant == "external"
     mech = {"inertia": model.inertia, "damping": model.damping, "noise": model.smoother_noise} if external else {}
     course = estimators.kalman(filtered, **mech).stiffness
-    tail = course[-int(HINDSIGHT_S * model.fs):].copy()
     memory_s = model.memory_s if model.memory_s is not None else 0.0
     unjudged = filtered.edge + int(round(memory_s * model.fs))
+    tail = course[-(int(window_s(model.motion_hz) * model.fs) + unjudged):].copy()
     tail[max(len(tail) - unjudged, 0):] = np.nan
     return tail
 

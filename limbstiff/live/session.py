@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import LimbstiffError
 from ..analysis import OBSERVABLE_PERIODS
 from .buffers import PublishedBand, Record, Window
-from .checks import HINDSIGHT_S, NO_ESTIMATE, WINDOW_MIN_S, WINDOW_PERIODS, Hindsight, LiveChecks, hindsight
+from .checks import NO_ESTIMATE, Hindsight, LiveChecks, hindsight, window_s
 from .identify import LONGEST_RECORD_S, REFIT_RECORD_S, LiveIdentification, identify_live, refit_live
 
 #: The first identification after this many seconds of record (``--warmup``), then each time the
@@ -44,6 +44,9 @@ CHECK_EVERY_S = 0.25
 #: Gaps up to this many motion periods (a quarter cycle, the offline readers' default) are bridged
 #: by interpolation; longer ones restart the estimate (a break).
 BRIDGE_PERIODS = 0.25
+#: Seconds of the published band kept for the ``hindsight`` check: a checks window of a slow motion
+#: (0.24 Hz: 42 s) and its memory (8 s), and the time an identification takes to come back.
+PUBLISHED_S = 120.0
 
 
 def identification_due(done: int, *, warmup_s: float = WARMUP_S) -> float:
@@ -165,7 +168,7 @@ class LiveSession:
         self._window = Window(1)
         self._verdict = NO_ESTIMATE
         self._since_check = 0
-        self._band = PublishedBand(int(2 * HINDSIGHT_S * self.fs))
+        self._band = PublishedBand(int(PUBLISHED_S * self.fs))
         self._looked_back: Hindsight | None = None
         self.last: np.ndarray | None = None
 
@@ -368,8 +371,7 @@ class LiveSession:
         return None
 
     def _window_steps(self) -> int:
-        seconds = max(WINDOW_PERIODS / self.model.motion_hz, WINDOW_MIN_S)
-        return int(seconds * self.fs / self.model.decimation)
+        return int(window_s(self.model.motion_hz) * self.fs / self.model.decimation)
 
     def _new_window(self, keep: "Window | None" = None) -> "Window":
         """A window for the model now; with the steps of ``keep`` when they are the same steps (the
