@@ -473,3 +473,28 @@ def test_hindsight_flags_the_band_that_lagged_a_ramp():
     at_20 = session.events.identifications[-1]                 # as stream.json says it
     assert at_20["at_samples"] == 20000 and at_20["hindsight"]["too_narrow"]
     assert at_20["hindsight"]["outside"] > at_20["hindsight"]["limit"]
+
+
+def test_the_published_band_ring_returns_what_was_added_by_position():
+    from limbstiff.live.buffers import PublishedBand
+
+    def rows(first, k):             # OUT rows whose lo is the position, hi the position + 0.5, informed
+        r = np.full((k, 10), np.nan)
+        r[:, 1], r[:, 2], r[:, 3] = np.arange(first, first + k), np.arange(first, first + k) + 0.5, 1.0
+        return r
+    band = PublishedBand(10)
+    band.add(0, rows(0, 7))
+    band.add(7, None, 2)            # bridged: not published
+    band.add(9, rows(9, 6))         # wraps around the ring
+    lo, hi = band.between(3, 15)    # 3, 4 no longer held (15 − 10 = 5 is the first held)
+    expect = np.array([np.nan, np.nan, 5, 6, np.nan, np.nan, 9, 10, 11, 12, 13, 14])
+    np.testing.assert_array_equal(lo, expect)
+    np.testing.assert_array_equal(hi, expect + 0.5)
+    band.add(15, rows(15, 23))      # more than the ring holds at once: its last 10
+    lo, _ = band.between(25, 38)
+    np.testing.assert_array_equal(lo, [np.nan, np.nan, np.nan] + list(range(28, 38)))
+    r = rows(38, 2)
+    r[0, 3] = 0.0                   # not informed: not judged
+    band.add(38, r)
+    lo, _ = band.between(38, 40)
+    np.testing.assert_array_equal(lo, [np.nan, 39])

@@ -6,8 +6,9 @@ m and b with their emcee posterior (:func:`~limbstiff.mechanics.identification.i
 — then fits the model's noise levels by maximum likelihood on the causal chain's own steps (its
 filter is causal, so its noise is coloured differently from the zero-phase chain's) and runs the
 chain over the record, so that the estimator it returns carries on from the last sample given.
-It also smooths the record as the offline analysis does, for the live ``hindsight`` check. It is slow (seconds): ``limbstiff stream`` calls it in a worker process while the live estimate
-goes on with the model it has (:mod:`limbstiff.live.session`). Pure numpy/scipy: no I/O.
+It also smooths the record as the offline analysis does, for the live ``hindsight`` check. It is
+slow (seconds): ``limbstiff stream`` calls it in a worker process while the live estimate goes on
+with the model it has (:mod:`limbstiff.live.session`). Pure numpy/scipy: no I/O.
 """
 
 from __future__ import annotations
@@ -18,8 +19,8 @@ import numpy as np
 
 from ..analysis import filter_for_model
 from ..estimate import estimators
-from ..filtered import filter_trial
 from ..estimate.kalman import data_guess, fit_noise_levels
+from ..filtered import filter_trial
 from ..mechanics.identification import identify_mechanics
 from ..protocol import Protocol
 from ..statespace.steps import initial_cov, model_steps
