@@ -95,6 +95,11 @@ class PublishedBand:
         or ``n`` samples without a band (``rows`` None)."""
         size = len(self.rows)
         k = n if rows is None else len(rows)
+        start = position % size
+        if k <= size - start:              # most chunks: one slice, no wrap
+            self.rows[start:start + k] = np.nan if rows is None else rows[:, 1:4]
+            self.end = position + k
+            return
         skip = max(k - size, 0)
         start = (position + skip) % size
         first = min(k - skip, size - start)
