@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..analysis import filter_for_model
+from ..errors import LimbstiffError
 from ..estimate import estimators
 from ..estimate.kalman import data_guess, fit_noise_levels
 from ..filtered import filter_trial
@@ -145,7 +146,16 @@ def identify_live(angle: np.ndarray, torque: np.ndarray, *, fs: float, protocol:
     est = _fitted_estimator(model, angle, torque, noise, memory_periods)
     return LiveIdentification(model=est.model, estimator=est, samples=keep, variant=filtered.variant,
                               warnings=tuple(trial.warnings) + tuple(warnings),
-                              smoothed=_smoothed_tail(filtered, est.model))
+                              smoothed=_unless_it_fails(lambda: _smoothed_tail(filtered, est.model)))
+
+
+def _unless_it_fails(course):
+    """``course()``, or None when it cannot be made: the look back is the ``hindsight`` check's,
+    never a reason for an identification or a refit to fail."""
+    try:
+        return course()
+    except (LimbstiffError, ValueError, np.linalg.LinAlgError):
+        return None
 
 
 def _smoothed_tail(filtered, model: LiveModel) -> np.ndarray:
@@ -206,7 +216,9 @@ def refit_live(angle: np.ndarray, torque: np.ndarray, *, previous: LiveModel,
     model = replace(previous, initial_cov=(p11, p22), typical_variance=None, memory_s=None,
                     identified_s=keep / previous.fs)
     est = _fitted_estimator(model, angle, torque, previous.noise, memory_periods)
-    filtered = filter_trial(_trial("live", previous.fs, angle, torque, variant), protocol or Protocol(),
-                            corner_hz=previous.corner_hz)
+    def course():
+        filtered = filter_trial(_trial("live", previous.fs, angle, torque, variant), protocol or Protocol(),
+                                corner_hz=previous.corner_hz)
+        return _smoothed_tail(filtered, est.model)
     return LiveIdentification(model=est.model, estimator=est, samples=keep, variant=variant, warnings=(),
-                              smoothed=_smoothed_tail(filtered, est.model))
+                              smoothed=_unless_it_fails(course))
