@@ -503,11 +503,11 @@ def test_the_published_band_ring_returns_what_was_added_by_position():
 def test_a_look_back_that_cannot_be_made_does_not_fail_the_refit(ramp_trial, monkeypatch):
     from limbstiff.live import identify
     y, f, _, fs = ramp_trial
-    first = identify.identify_live(y[:5000], f[:5000], fs=fs, memory_periods=2.0)
+    first = identify.identify_live(y[:20000], f[:20000], fs=fs, memory_periods=2.0)
     assert first.smoothed is not None and np.isfinite(first.smoothed).any()
 
     def fails(*args, **kwargs):
-        raise TrialError("no smoother today")
+        raise TrialError("live", "no smoother today")
     monkeypatch.setattr(identify.estimators, "kalman", fails)
-    refit = identify.refit_live(y[:8000], f[:8000], previous=first.model, memory_periods=2.0)
+    refit = identify.refit_live(y[:22000], f[:22000], previous=first.model, memory_periods=2.0)
     assert refit.smoothed is None and np.isfinite(refit.model.noise.stiffness_walk)
