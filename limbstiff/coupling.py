@@ -57,6 +57,9 @@ START_RESONANCES_HZ = (20.0, 30.0, 45.0, 70.0, 100.0, 150.0)
 #: 10–75 (simulated couplings of 20–60 Hz, the real ankles); a start that drives a parameter
 #: towards 0 or ∞ never converges and would otherwise run on.
 MAX_EVALUATIONS = 400
+#: Relative difference of cost below which two converged starts are the same fit (the earlier
+#: start is kept): six starts at one minimum of a simulated coupled ankle differed by ~6 ulp.
+TIE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -185,8 +188,10 @@ def _fit_two_body(w, h, weight, one: np.ndarray) -> tuple[np.ndarray, float]:
         with np.errstate(all="ignore"):
             fit = optimize.least_squares(residual, x0, jac=jacobian, method="lm", max_nfev=MAX_EVALUATIONS)
         # a start that ran out of evaluations drifted towards 0 or ∞: where it stopped is no
-        # fit, and its last digits differ between processes (the parallel run's summary did)
-        if fit.status > 0 and np.isfinite(fit.cost) and (best is None or fit.cost < best.cost):
+        # fit, and its last digits differ between processes (the parallel run's summary did);
+        # starts that end at the same minimum tie to ~1e-15, so a later one must be better by
+        # more than that to be taken
+        if fit.status > 0 and np.isfinite(fit.cost) and (best is None or fit.cost < best.cost * (1 - TIE)):
             best = fit
     if best is None:
         return np.full(6, np.nan), float("nan")

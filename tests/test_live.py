@@ -424,7 +424,8 @@ def test_hindsight_false_alarm_and_detection_rates():
     # the calibrated band misses 10 % on average (each record's share has sd 0.03, the mean of 200
     # 0.002: ± 1.2 % is six of those, and a band 10 % narrower misses 12.6 %); it is flagged at
     # most at the one-sided 2.3 % (~5 of 200; measured 0: the binomial limit is conservative for
-    # correlated errors), and a band of ±1.2 sd (missing 23 %) in 127 of 200
+    # correlated errors); a band of ±0.8 sd misses 42.4 % (2·Φ(−0.8)) and is flagged in nearly all
+    # (measured 200 of 200; a band of ±1.2 sd, missing 23 %, was flagged in 127)
     assert abs(np.mean(outside[1.645]) - 0.10) < 0.012
     assert alarms[1.645] <= 8
     assert abs(np.mean(outside[0.8]) - 0.424) < 0.02
@@ -463,7 +464,11 @@ def test_hindsight_flags_the_band_that_lagged_a_ramp():
             looks.append((at / trial.fs, found))
         return found
     session._look_back = look_back
-    values, _ = _replay(session, trial.angle, trial.torque, trial.fs)
+    cut = int(18.5 * trial.fs)          # a look back at 18 s said the band too narrow: the verdict says so
+    first, _ = _replay(session, trial.angle[:cut], trial.torque[:cut], trial.fs)
+    assert "hindsight" in session.checks.failed and first[-1, 4] == CAUTION
+    rest, _ = _replay(session, trial.angle[cut:], trial.torque[cut:], trial.fs, times=trial.time[cut:] - trial.time[0])
+    values = np.vstack([first, rest])
     flagged = [t for t, found in looks if found.too_narrow]
     assert flagged and 12.0 <= min(flagged) and max(flagged) <= 22.0      # while the ramp is in the window
     assert all(found.outside < 0.1 for t, found in looks if t >= 26.0)        # 4 s after it ended: not
@@ -511,3 +516,14 @@ def test_a_look_back_that_cannot_be_made_does_not_fail_the_refit(ramp_trial, mon
     monkeypatch.setattr(identify.estimators, "kalman", fails)
     refit = identify.refit_live(y[:22000], f[:22000], previous=first.model, memory_periods=2.0)
     assert refit.smoothed is None and np.isfinite(refit.model.noise.stiffness_walk)
+
+
+def test_hindsight_counts_no_more_comparisons_than_samples():
+    """Intermittent motion: 100 informed samples in two blocks at the ends of a 5000-sample window
+    are not 2.5 memories of comparisons (review of this check: one short miss said 'caution')."""
+    smoothed = np.full(5000, 10.0)
+    lo, hi = np.full(5000, np.nan), np.full(5000, np.nan)
+    lo[:50], hi[:50] = 9.0, 11.0
+    lo[-50:], hi[-50:] = 10.5, 11.0           # a short miss
+    assert hindsight(smoothed, lo, hi, memory_samples=1000, ci_level=0.9) is None
+    assert hindsight(smoothed, lo, hi, memory_samples=20, ci_level=0.9).independent == pytest.approx(100 / 40)

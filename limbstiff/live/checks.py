@@ -98,7 +98,8 @@ class LiveChecks:
     negative_share : float
         Share of informed samples with a negative stiffness.
     hindsight : Hindsight or None
-        The last full identification's look back (None before one could look back).
+        The last look back (an identification's or a noise refit's) that could be judged; None
+        before one could.
     verdict : int
         :data:`OK`, :data:`CAUTION` or :data:`UNRELIABLE`.
     failed : tuple of str
@@ -128,8 +129,8 @@ class Hindsight:
     samples : int
         Samples compared.
     independent : float
-        About how many independent comparisons they are: their span over two memories (the
-        causal estimate's errors are correlated over its memory).
+        About how many independent comparisons they are: their span (their number, when fewer)
+        over two memories (the causal estimate's errors are correlated over its memory).
     ci_level : float
         The band's level.
     """
@@ -179,7 +180,8 @@ def hindsight(smoothed: np.ndarray, lo: np.ndarray, hi: np.ndarray, *, memory_sa
     use = np.flatnonzero(np.isfinite(lo) & np.isfinite(hi) & np.isfinite(smoothed))
     if not len(use):
         return None
-    independent = (use[-1] - use[0] + 1) / (2.0 * max(memory_samples, 1))
+    # a span with gaps in it (intermittent motion) holds no more comparisons than its samples
+    independent = min(use[-1] - use[0] + 1, len(use)) / (2.0 * max(memory_samples, 1))
     if independent < HINDSIGHT_MIN_MEMORIES:
         return None
     miss = (smoothed[use] < lo[use]) | (smoothed[use] > hi[use])

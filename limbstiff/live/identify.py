@@ -17,8 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..analysis import filter_for_model
-from ..errors import LimbstiffError
+from ..analysis import OBSERVABLE_PERIODS, filter_for_model
 from ..estimate import estimators
 from ..estimate.kalman import data_guess, fit_noise_levels
 from ..filtered import filter_trial
@@ -154,7 +153,7 @@ def _unless_it_fails(course):
     never a reason for an identification or a refit to fail."""
     try:
         return course()
-    except (LimbstiffError, ValueError, np.linalg.LinAlgError):
+    except Exception:        # any: the live estimate, the refit and the session must go on
         return None
 
 
@@ -165,7 +164,7 @@ def _smoothed_tail(filtered, model: LiveModel) -> np.ndarray:
     external = filtered.variant == "external"
     mech = {"inertia": model.inertia, "damping": model.damping, "noise": model.smoother_noise} if external else {}
     course = estimators.kalman(filtered, **mech).stiffness
-    memory_s = model.memory_s if model.memory_s is not None else 0.0
+    memory_s = model.memory_s if model.memory_s is not None else OBSERVABLE_PERIODS / model.motion_hz
     unjudged = filtered.edge + int(round(memory_s * model.fs))
     tail = course[-(int(window_s(model.motion_hz) * model.fs) + unjudged):].copy()
     tail[max(len(tail) - unjudged, 0):] = np.nan
