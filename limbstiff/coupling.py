@@ -22,8 +22,9 @@ platform 6–21 for one body and 2.9–4.1 for two — a nonlinearity the two-bo
 which the first version of this test took for a coupling (errors of 38 % to 4800 % after the
 "correction"). The two-body model is fitted only when one body misses by that much, and only a
 start that converges counts: the clean simulated elbow's starts ran out of evaluations drifting
-towards k_c → 0, and where they stopped differed in the 13th digit between two processes. Then :meth:`CouplingFit.limb_stiffness` undoes the
-series springs sample by sample, keeping the stiffness's course. Pure numpy/scipy.
+towards k_c → 0, and where they stopped differed in the 13th digit between two processes. Then
+:meth:`CouplingFit.limb_stiffness` undoes the series springs sample by sample, keeping the
+stiffness's course. Pure numpy/scipy.
 """
 
 from __future__ import annotations

@@ -227,7 +227,8 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
         The estimate's memory in model steps (the ``changing`` check; not made without it). The
         stiffness arrays must then be at the same steps, in order.
     looked_back : Hindsight, optional
-        The last identification's look back (the ``hindsight`` check; not made without it).
+        The last look back that could be judged, an identification's or a noise refit's (the
+        ``hindsight`` check; not made without it).
 
     Returns
     -------
