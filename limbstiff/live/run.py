@@ -13,7 +13,6 @@ so the session ends with the same outputs as ``limbstiff analyze``.
 from __future__ import annotations
 
 import dataclasses
-import json
 import multiprocessing
 import time
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
@@ -27,8 +26,8 @@ import numpy as np
 from ..batch.jobs import analyze_files
 from ..errors import StreamError
 from ..files import lsl, lsl_outlet
-from ..files.atomic import atomic_write_text
 from ..files.columns import in_si, resolve_columns
+from ..files.outputs import jsonable, write_json
 from ..files.recording import GrowingTable, SegmentedRecording
 from ..protocol import Protocol
 from ..result import software
@@ -338,7 +337,7 @@ def run_stream(settings: StreamSettings, *, progress: Callable[[str], None] | No
                 thing.close()
     notes = [identifier.note] if identifier.note else []
     summary = _summary(settings, description, session, stopped, latency, offsets, paths, notes)
-    atomic_write_text(folder / "stream.json", json.dumps(summary, indent=2, allow_nan=False, default=_jsonable) + "\n")
+    write_json(folder / "stream.json", summary)
     if announce:
         recorded = ", ".join(str(p) for p in paths) or "nothing"
         announce(f"stream: {stopped}; {summary['samples']} samples recorded to {recorded}; live estimate and "
@@ -357,17 +356,13 @@ def _analysis_protocol(protocol: Protocol, session: LiveSession) -> Protocol:
     return protocol.override(max_gap_s=longest + 0.5 / session.fs)
 
 
-def _jsonable(value):
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    raise TypeError(type(value).__name__)
-
-
 def _summary(settings, description, session, stopped, latency, offsets, paths, notes) -> dict:
+    """``stream.json`` as plain JSON values (:func:`~limbstiff.files.outputs.jsonable`: numpy
+    scalars converted, a value that is not a number as null)."""
     ev = session.events
     checks = ev.checks
     fs = description.fs
-    return {
+    return jsonable({
         "stream": {"name": description.name, "type": description.type, "source_id": description.source_id,
                    "hostname": description.hostname, "nominal_rate_hz": fs, "channels": list(description.labels)},
         "recordings": [p.name for p in paths], "stopped": stopped, "samples": ev.samples,
@@ -375,23 +370,17 @@ def _summary(settings, description, session, stopped, latency, offsets, paths, n
         "longest_bridged_gap_s": ev.longest_bridged_s, "non_finite_samples": ev.non_finite,
         "clock_steps": ev.clock_steps,
         "breaks": [{"from_lsl_time_s": a, "to_lsl_time_s": b} for a, b in ev.breaks],
-        "clock_offset_s": {"start": _finite(offsets[0]) if offsets else None,
-                           "end": _finite(offsets[-1]) if offsets else None},
+        "clock_offset_s": {"start": offsets[0] if offsets else None, "end": offsets[-1] if offsets else None},
         "warmup_s": settings.warmup_s, "memory_periods": MEMORY_PERIODS,
         "identifications": [{**d, "at_s": d["at_samples"] / fs} for d in ev.identifications],
         "noise_refits": ev.refits, "noise_refit_every_s": REFIT_EVERY_S,
         "failed_noise_refits": [{**d, "at_s": d["at_samples"] / fs} for d in ev.failed_refits],
         "last_checks": None if checks is None else {
-            "motion": _finite(checks.motion), "torque_explained": _finite(checks.explained),
-            "tracking": _finite(checks.tracking), "moved": _finite(checks.moved),
-            "whiteness": _finite(checks.whiteness), "band_width": _finite(checks.band_width),
-            "negative_share": checks.negative_share,
-            "hindsight": None if checks.hindsight is None else checks.hindsight.to_dict(),
+            "motion": checks.motion, "torque_explained": checks.explained,
+            "tracking": checks.tracking, "moved": checks.moved,
+            "whiteness": checks.whiteness, "band_width": checks.band_width,
+            "negative_share": checks.negative_share, "hindsight": checks.hindsight,
             "verdict": VERDICT_NAMES[checks.verdict],
             "failed": list(checks.failed)},
         "latency": latency.summary(), "notes": notes, "seed": settings.seed, "software": software(),
-    }
-
-
-def _finite(x: float):
-    return float(x) if np.isfinite(x) else None
+    })
