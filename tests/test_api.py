@@ -86,6 +86,7 @@ def test_analyze_takes_a_path_and_a_protocol_path(monkeypatch):
     assert default == limbstiff.Protocol() and bare.n_samples == trial.n_samples
 
 
+@pytest.mark.slow
 def test_analyze_a_bundled_file_by_its_name(monkeypatch):
     monkeypatch.chdir(ROOT)
     result = limbstiff.analyze("examples/elbow.csv", seed=0)

@@ -10,11 +10,14 @@ import time
 from pathlib import Path
 
 import pandas as pd
+import pytest
 from click.testing import CliRunner
 
 from limbstiff.batch.runner import TrialOutcome
 from limbstiff.cli import main
 from limbstiff.cli.progress import Progress
+
+pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
 
 
 def run(*args):

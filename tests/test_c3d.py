@@ -55,6 +55,7 @@ def elbow():
     return simulate("elbow", seed=2, params={"duration": 4.0})
 
 
+@pytest.mark.slow
 def test_same_trial_as_csv_and_c3d_gives_the_same_result(elbow, tmp_path):
     """C3D stores float32: the CSV twin carries the same float32 values, so the two trials are
     equal to float64 round-off and so are their analyses (1e-9 relative: the only difference

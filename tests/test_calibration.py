@@ -16,6 +16,8 @@ from limbstiff.mechanics.fixed_b import bartlett_fixed_b
 from limbstiff.statespace.linear import long_run_covariance
 from limbstiff.trial_level import trial_level
 
+pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
+
 
 def test_course_draws_have_the_smoothers_posterior_variance():
     # Durbin & Koopman's simulation smoother draws from the smoothed posterior: the variance over

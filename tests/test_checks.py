@@ -40,6 +40,7 @@ def _failed(result) -> set[str]:
     ("elbow", {"duration": 12.0}), ("wrist", {"duration": 12.0}), ("ankle", {"duration": 20.0}),
     ("paper-exp-spring", {"duration": 10.0}), ("paper-vsa-exp", {"duration": 15.0}),
 ])
+@pytest.mark.slow
 def test_clean_scenarios_the_model_fits_are_ok(scenario, params):
     result = limbstiff.analyze(simulate(scenario, seed=31, params=params), seed=0)
     assert result.verdict == OK, result.checks.reasons
@@ -47,6 +48,7 @@ def test_clean_scenarios_the_model_fits_are_ok(scenario, params):
     assert result.reference_error()["median"] < 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["paper-vsa-hogan", "paper-vsa-feldman"])
 def test_generalized_damping_is_flagged_with_default_settings(scenario):
     # b(d) = 2β|θ̇| (the paper's Sec. II) is not a constant b: the default analysis misses it by
@@ -56,6 +58,7 @@ def test_generalized_damping_is_flagged_with_default_settings(scenario):
     assert result.verdict == UNRELIABLE
 
 
+@pytest.mark.slow
 def test_an_unexplained_torque_fails_the_heldout_check(elbow, elbow_result):
     # band-limited torque (0.2–3 Hz) independent of the angle, twice the torque's spread
     rng = np.random.default_rng(4)
@@ -87,12 +90,14 @@ def test_innovation_checks_compare_with_their_thresholds():
     assert all(c.passed for c in _innovations(InnovationStatistics(0.99, 0.9), True, 1e-7))
 
 
+@pytest.mark.slow
 def test_noise_level_at_its_bound_fails():
     # hysteresis on the ankle: the stiffness walk reaches its bound (measured 13 % error)
     result = limbstiff.analyze(simulate("ankle", seed=101, params={"duration": 20.0}, effect="hysteresis"), seed=101)
     assert "noise_levels_at_bounds" in _failed(result) and result.verdict == CAUTION
 
 
+@pytest.mark.slow
 def test_mechanics_disagreement_fails():
     # backlash on the ankle: least squares and likelihood disagree by 26 % (stiffness 22–35 % off)
     result = limbstiff.analyze(simulate("ankle", seed=101, params={"duration": 20.0}, effect="backlash"), seed=101)
@@ -134,6 +139,7 @@ def test_reversed_elastic_torque_direct_variant():
     assert {"torque_sign", "negative_stiffness_share"} <= _failed(result) and result.verdict == UNRELIABLE
 
 
+@pytest.mark.slow
 def test_a_delay_is_not_mistaken_for_a_reversed_sign():
     # a 20 ms channel delay on the ankle makes the identified inertia negative; the message
     # must not blame the sign
@@ -170,6 +176,7 @@ def test_summary_carries_verdict_and_checks(elbow_result):
     assert all(set(c) >= {"name", "value", "threshold", "passed", "message"} for c in s["checks"])
 
 
+@pytest.mark.slow
 def test_a_reflex_on_a_platform_is_flagged():
     # nearly noise-free torque, but the model misses 4-5 % of it out of sample: the residual's
     # structure is judged. The stiffness is off (measured: median 25-42 % with one kind of stiffness
@@ -181,6 +188,7 @@ def test_a_reflex_on_a_platform_is_flagged():
     assert result.verdict != OK and "residual_whiteness" in _failed(result)
 
 
+@pytest.mark.slow
 def test_walkers_starting_on_a_bound_do_not_fail():
     # the likelihood's optimum on a noise level's bound put every walker on it: emcee's snooker
     # move then divided by zero ("At least one parameter value was NaN")
@@ -211,6 +219,7 @@ def _independent_trial(tmp_path, seed: int, name: str):
     return limbstiff.analyze(read_trial(tmp_path / f"{name}.csv"), seed=0)
 
 
+@pytest.mark.slow
 def test_a_spring_stiffening_within_the_cycle_is_flagged(tmp_path):
     """The independent simulator's co-contracting elbow with a cubic spring (suite seed 7200): its
     tangent stiffness rises by 3·k₃·θ² at every excursion (k₃ = 84 N·m/rad³, ±0.3 rad), which the
@@ -263,6 +272,7 @@ def test_the_band_width_limit_is_where_a_calibrated_band_expects_the_fitting_err
     assert np.median(np.abs(rng.normal(0.0, sd, 100_000))) == pytest.approx(FITS, rel=0.02)
 
 
+@pytest.mark.slow
 def test_hysteresis_on_the_platform_ankle_is_flagged():
     """Dahl hysteresis on the platform's binary steps saturates within each step and adds a torque
     that steps with the angle: the stiffness reads 30–35 % high (seeds 101–102: 33 %) and every
@@ -274,12 +284,14 @@ def test_hysteresis_on_the_platform_ankle_is_flagged():
     assert "band_width_relative" in _failed(result) and result.verdict != OK
 
 
+@pytest.mark.slow
 def test_the_platform_ankle_clean_keeps_a_narrow_band():
     result = limbstiff.analyze(simulate("ankle-platform", seed=43, params={"duration": 20.0}), seed=43)
     assert result.verdict == OK, result.checks.reasons
     assert result.checks["band_width_relative"].value < 0.1      # measured 0.04 on seeds 101–102
 
 
+@pytest.mark.slow
 def test_a_pause_does_not_count_against_the_residual():
     """The paper's antagonistic exponential springs, 20 s: the torque stops at 10 s and the free
     motion dies out within 1.5 s. Over every step the noise-free residual of that decay made the

@@ -33,6 +33,7 @@ def test_analyze_offers_the_protocols_estimators():
     assert tuple(option.type.choices) == ESTIMATORS
 
 
+@pytest.mark.slow
 def test_analyze_writes_the_contract(trial_file, tmp_path):
     path = trial_file("t1")
     out = tmp_path / "out"
@@ -68,6 +69,7 @@ def test_fixed_inertia_and_damping_are_used(trial_file, tmp_path):
     assert summary["damping"]["median"] == 0.5
 
 
+@pytest.mark.slow
 def test_one_corrupt_file_among_good_ones(trial_file, tmp_path):
     folder = tmp_path / "trials"
     folder.mkdir()
@@ -102,6 +104,7 @@ def test_bad_protocol_is_exit_2(trial_file, tmp_path):
     assert "p.toml" in res.output and res.output.count("\n") == 1
 
 
+@pytest.mark.slow
 def test_outputs_are_not_overwritten_without_overwrite(trial_file, tmp_path):
     path, out = trial_file("t1"), tmp_path / "out"
     assert run("analyze", path, "--out", out, "--no-pdf").exit_code == 0
@@ -114,6 +117,7 @@ def test_outputs_are_not_overwritten_without_overwrite(trial_file, tmp_path):
     assert json.loads((out / "t1" / "summary.json").read_text())["inertia"]["median"] == 0.1
 
 
+@pytest.mark.slow
 def test_stem_collisions_keep_both(trial_file, tmp_path):
     for sub in ("day1", "day2"):
         (tmp_path / sub).mkdir()
@@ -125,6 +129,7 @@ def test_stem_collisions_keep_both(trial_file, tmp_path):
     assert "also named 'trial'" in res.output
 
 
+@pytest.mark.slow
 def test_report_pdf_is_written(trial_file, tmp_path):
     out = tmp_path / "out"
     res = run("analyze", trial_file("t1", duration=3.0), "--out", out)
@@ -133,6 +138,7 @@ def test_report_pdf_is_written(trial_file, tmp_path):
     assert pdf.startswith(b"%PDF") and b"limbstiff" in pdf
 
 
+@pytest.mark.slow
 def test_reklab_protocol_on_real_file(tmp_path):
     from .conftest import REAL
     out = tmp_path / "out"
@@ -192,6 +198,7 @@ def test_simulate_list_and_bad_scenario(tmp_path):
     assert res.exit_code == 2 and "durashun" in res.output
 
 
+@pytest.mark.slow
 def test_identify_writes_posterior_and_draws(tmp_path):
     path = tmp_path / "elbow.csv"
     assert run("simulate", "elbow", "--seed", 11, "--set", "duration=8", "--out", path).exit_code == 0

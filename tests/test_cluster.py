@@ -13,6 +13,8 @@ from limbstiff.batch import cluster
 from limbstiff.batch.runner import BatchJob, TrialOutcome, run_jobs
 from limbstiff.cli import main
 
+pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
+
 
 def run(*args):
     return CliRunner().invoke(main, [str(a) for a in args])

@@ -14,6 +14,8 @@ import limbstiff
 from limbstiff.coupling import ADEQUATE_CHI2, CouplingFit
 from limbstiff.simulate import simulate
 
+pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
+
 
 @pytest.fixture(scope="module")
 def coupled():

@@ -17,6 +17,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
+
 ROOT = Path(__file__).resolve().parents[1]
 REAL = ROOT / "data" / "reklab-ankle"
 #: summary.json keys that name where or when the outputs were written, not what they hold.

@@ -20,6 +20,8 @@ from limbstiff.files import write_trial
 from limbstiff.protocol import Protocol
 from limbstiff.simulate import effect_defaults, simulate
 
+pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
+
 
 # --- where: pure functions against exact answers ------------------------------------------------
 

@@ -86,6 +86,7 @@ def test_reflex_check_thresholds():
     assert reflex_check(wrong).severity == "unreliable" and "--effect reflex" in reflex_check(wrong).message
 
 
+@pytest.mark.slow
 def test_a_reflex_left_out_is_named_and_put_in_it_is_identified(reflex_elbow):
     gain = float(reflex_elbow.metadata["effect.gain"])
     plain = analyze(reflex_elbow, seed=1)
@@ -111,6 +112,7 @@ def test_a_reflex_left_out_is_named_and_put_in_it_is_identified(reflex_elbow):
     assert summary["details"]["identification"]["effects"][0]["name"] == "reflex"
 
 
+@pytest.mark.slow
 def test_m_and_b_given_the_amplitude_is_still_identified(reflex_elbow):
     fitted = analyze(reflex_elbow, seed=1, inertia=0.06, damping=0.45, effects=("reflex",))
     (effect,) = fitted.identification.effects
@@ -142,6 +144,7 @@ def test_effects_need_the_external_variant_and_the_kalman_estimator(reflex_elbow
             analyze(direct, effects=("reflex",))
 
 
+@pytest.mark.slow
 def test_cli_effect_option(tmp_path, reflex_elbow):
     path = write_trial(reflex_elbow, tmp_path / "t.csv")
     res = CliRunner().invoke(main, ["analyze", str(path), "--out", str(tmp_path / "o"), "--no-pdf",
@@ -156,6 +159,7 @@ def test_cli_effect_option(tmp_path, reflex_elbow):
     assert bad.exit_code == 2 and "backlash" in bad.output
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("effect", [None, "reflex"])
 def test_the_screened_profile_keeps_the_exhaustive_best_shape(effect):
     # the screen (every shape's torque at a quarter or an eighth of the rate) only decides which shapes
@@ -182,6 +186,7 @@ def test_the_screened_profile_keeps_the_exhaustive_best_shape(effect):
     assert dataclasses.replace(coarse.filtered.chain, fs=ch.fs) == ch.chain
 
 
+@pytest.mark.slow
 def test_a_long_trials_shapes_are_screened_around_the_models_blocks():
     # a long ankle (corner ~64 Hz: no coarser rate qualifies) is identified on six blocks spread
     # over it; its shapes are screened on the samples near them only, and the exhaustive best shape

@@ -83,6 +83,7 @@ def test_read_ensemble_joins_the_files_in_natural_order(tmp_path):
     assert read_ensemble(paths, name="other").source_sha256 == trial.source_sha256
 
 
+@pytest.mark.slow
 def test_ensemble_through_the_cli(ensemble_run):
     run, out = ensemble_run
     assert run.exit_code == 0, run.output

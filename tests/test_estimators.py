@@ -29,6 +29,7 @@ def _errors(result, skip=2.0):
     ("ankle", {"duration": 12.0, "stiffness_variation": 0.3, "variation_period": 6.0}),
     ("wrist", {"duration": 12.0}),
 ])
+@pytest.mark.slow
 def test_default_estimator_meets_the_targets(scenario, params):
     result = analyze(simulate(scenario, seed=7, params=params))
     assert result.estimator == "kalman"
@@ -70,6 +71,7 @@ def test_uninformed_band_spans_the_trials_range():
         assert all(a is b for a, b in zip(uninformed_band(lo, hi, mask), (lo, hi)))
 
 
+@pytest.mark.slow
 def test_a_motion_pause_holds_the_truth():
     """Elbow with a 4 s pause (seed 2, whose model band in the pause held the truth 56 % of the
     time): the true stiffness ramps 6 → 30 N·m/rad and stays within the trial's range, so the
@@ -92,6 +94,7 @@ def test_band_informed_drops_samples_whose_band_is_three_times_wider():
     assert band_informed(variance, few) is few                 # fewer than 3 usable samples: left as it is
 
 
+@pytest.mark.slow
 def test_a_pause_the_independent_simulator_drifts_through_is_not_informed(tmp_path):
     """The independent simulator's clean co-contraction elbow with a 3 s pause (suite seed 7200,
     ``tests/support/independent_trials.py``, written without limbstiff's code): the limb drifts at
@@ -116,6 +119,7 @@ def test_a_pause_the_independent_simulator_drifts_through_is_not_informed(tmp_pa
     assert 0.85 <= result.reference_error()["coverage"] <= 0.99
 
 
+@pytest.mark.slow
 def test_smoothed_observer_beats_the_causal_one():
     trial = simulate("elbow", seed=7, params={"duration": 12.0})
     causal = _errors(analyze(trial, Protocol(estimator="observer")))
@@ -123,6 +127,7 @@ def test_smoothed_observer_beats_the_causal_one():
     assert smoothed[0] < causal[0]
 
 
+@pytest.mark.slow
 def test_observer_sensitivity_is_exact():
     # docs/architecture.md, fact 2 through the whole estimator: σ̂(m + Δm, b + Δb) = σ̂ + Δm·g0 + Δb·g1
     trial = simulate("elbow", seed=7, params={"duration": 6.0})
@@ -207,6 +212,7 @@ def test_smoother_in_place_equals_the_textbook_pass():
     ("elbow", {"inertia": 0.07, "damping": 0.35, "duration": 10.0}),
     ("ankle", {"inertia": 0.012, "damping": 1.2, "duration": 10.0}),
 ])
+@pytest.mark.slow
 def test_posterior_recovers_inertia_and_damping(joint, params):
     # seeds and sizes differ from benchmarks/identify.py; its 200-trial study finds median
     # errors of a fraction of a percent, so 5 % (m) and 10 % (b) are the issue's targets

@@ -84,6 +84,7 @@ def test_an_isolated_first_sample_is_dropped(tmp_path):
     np.testing.assert_allclose(read.angle, trial.angle, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_a_windows_export_is_analysed_without_a_protocol(tmp_path):
     # cp1252 metadata, semicolons, decimal commas, CRLF, headers 'Time (s);Angle (deg);Torque (Nm)'
     trial = multisine_trial(duration=8.0)

@@ -121,6 +121,7 @@ def _replay(session, y, f, fs, *, times=None, chunk=10):
     return np.vstack([p.values for p in parts]), parts
 
 
+@pytest.mark.slow
 def test_a_replayed_session_follows_the_independent_ramp(ramp_trial):
     y, f, truth, fs = ramp_trial
     session = LiveSession(fs, Immediately())
@@ -139,6 +140,7 @@ def test_a_replayed_session_follows_the_independent_ramp(ramp_trial):
     assert session.events.dropped_samples == 0 and session.events.breaks == []
 
 
+@pytest.mark.slow
 def test_dropped_samples_are_bridged_and_a_long_gap_restarts(ramp_trial):
     y, f, truth, fs = ramp_trial
     n = 20000
@@ -235,6 +237,7 @@ def test_growing_table_is_exact_and_readable_before_it_is_closed(tmp_path):
         GrowingTable(tmp_path / "other.csv", ["a", "b", "c"]).append(np.zeros((1, 2)))
 
 
+@pytest.mark.slow
 def test_samples_missing_inside_a_chunk_are_bridged_too(ramp_trial):
     y, f, _, fs = ramp_trial
     n = 9000
@@ -279,6 +282,7 @@ def test_changing_check_flags_an_estimate_that_moved_more_than_its_band():
     assert np.isnan(check(ramp, 0.5, None).moved)             # no memory, no check
 
 
+@pytest.mark.slow
 def test_samples_that_are_not_numbers_are_left_out_as_missing(ramp_trial):
     y, f, _, fs = ramp_trial
     n = 9000
@@ -294,6 +298,7 @@ def test_samples_that_are_not_numbers_are_left_out_as_missing(ramp_trial):
     assert part.usable is not None and part.usable.tolist() == [True] * 5 + [False] * 3 + [True] * 2
 
 
+@pytest.mark.slow
 def test_the_direct_variant_needs_no_inertia_or_damping():
     from limbstiff.simulate import simulate
     trial = simulate("paper-exp-spring", seed=1)            # the elastic torque is measured
@@ -446,6 +451,7 @@ def test_hindsight_judges_only_informed_published_samples():
     assert hindsight(smoothed, lo, hi, memory_samples=400, ci_level=0.9) is None    # 1000 samples: 1.25 memories
 
 
+@pytest.mark.slow
 def test_hindsight_flags_the_band_that_lagged_a_ramp():
     """limbstiff's elbow ramps 6 → 30 N·m/rad from 8 to 22 s: the live band lags it and holds the
     truth on about two thirds of the samples (benchmarks/live.py). The look backs (one per refit,

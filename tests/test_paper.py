@@ -13,6 +13,7 @@ import pytest
 from limbstiff import paper
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spring", [1, 2, 3])
 def test_fig6_exponential_springs_settle_below_one_percent_within_0_3_s(spring):
     track = paper.fig6_exponential_spring(spring, duration=10.0)
@@ -21,6 +22,7 @@ def test_fig6_exponential_springs_settle_below_one_percent_within_0_3_s(spring):
     assert track.error_stats(start=0.3)["max"] < 0.01
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["hogan", "feldman"])
 def test_fig7_both_muscle_models_tracked(model):
     stats = paper.fig7_antagonistic_link(model, duration=30.0).error_stats(start=2.0)
@@ -30,6 +32,7 @@ def test_fig7_both_muscle_models_tracked(model):
     assert stats["p90"] < 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["hogan", "feldman"])
 def test_fig8_ten_percent_error_on_m_and_b_gives_comparable_stiffness_error(model):
     exact = paper.fig7_antagonistic_link(model, duration=30.0).error_stats()

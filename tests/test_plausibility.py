@@ -167,6 +167,7 @@ def test_the_inertia_is_bounded_by_the_protocols_expected_range_or_prior():
 @pytest.mark.parametrize("path, protocol", [
     (REAL / "z_df3.csv", "reklab-ankle.toml"), (EXAMPLES / "elbow.csv", "elbow-lab.toml"),
 ], ids=["z_df3-reklab", "elbow-elbow-lab"])
+@pytest.mark.slow
 def test_no_units_finding_in_a_whole_analysis_with_the_bundled_protocols(path, protocol):
     proto = load_protocol(PROTOCOLS / protocol)
     trial = read_trial(path, proto)

@@ -4,6 +4,9 @@ import re
 from pathlib import Path
 
 import matplotlib
+import pytest
+
+pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
 
 ROOT = Path(__file__).resolve().parents[1]
 

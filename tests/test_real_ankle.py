@@ -14,6 +14,8 @@ from limbstiff.protocol import load_protocol
 
 from .conftest import PROTOCOLS, REAL
 
+pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
+
 REFERENCE = {"z_df": (0.0166, 1.35, 90.0), "z_df2": (0.0145, 0.79, 54.0), "z_df3": (0.0138, 1.45, 139.0),
              "z_pf": (0.0165, 0.65, 69.0), "z_pf2": (0.0149, 1.48, 127.0)}
 

@@ -88,6 +88,7 @@ def fixed():
     return limbstiff.analyze(multisine_trial(duration=4.0), inertia=0.06, damping=0.45, seed=0)
 
 
+@pytest.mark.slow
 def test_trial_report_pages_metadata_and_data(elbow, tmp_path):
     assert elbow.posterior is not None and elbow.reference is not None
     path = write_report(elbow, tmp_path / "report.pdf")
@@ -110,6 +111,7 @@ def test_trial_report_pages_metadata_and_data(elbow, tmp_path):
     assert all(settings in f and "numpy" in f and "seed 0" in f for f in footers)
 
 
+@pytest.mark.slow
 def test_standard_fonts_where_the_text_fits_them(elbow, tmp_path):
     """Pages whose text fits WinAnsi are written in Helvetica (not embedded: the fast path); a page
     with another character falls back to the embedded DejaVu font rather than print "?"."""
@@ -150,6 +152,7 @@ def test_fixed_inertia_and_damping_say_so(fixed):
     assert "given, not identified" in " ".join(t.get_text() for t in panels[0].texts)
 
 
+@pytest.mark.slow
 def test_direct_translational_trial():
     result = limbstiff.analyze(simulate("paper-exp-spring", seed=1, params={"duration": 4.0}), seed=0)
     assert result.variant == "direct" and result.trial.kind == "translational"
@@ -160,6 +163,7 @@ def test_direct_translational_trial():
     assert "N·m" not in text
 
 
+@pytest.mark.slow
 def test_unobservable_constant_torque_and_one_fixed_parameter(fixed, elbow, tmp_path):
     """Degenerate results still give a complete report: nothing informed, a constant torque."""
     n = fixed.trial.n_samples
@@ -228,6 +232,7 @@ def test_provenance():
     assert settings_hash(settings) == hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:12]
 
 
+@pytest.mark.slow
 def test_analysis_does_not_import_matplotlib():
     code = ("import sys, limbstiff, limbstiff.analysis, limbstiff.provenance, limbstiff.result; "
             "limbstiff.provenance.dependency_versions(); "
@@ -291,6 +296,7 @@ def test_prior_densities_integrate_to_one():
     assert prior_density(x, Prior()) is None
 
 
+@pytest.mark.slow
 def test_stiffness_against_angle_follows_a_known_spring():
     """paper-exp-spring narrowed to 1.0–1.6 cm and swept from 1 Hz (10 s, noise-free): k(θ) =
     a·b·e^(b·θ), b = 100/m, rises 1.8-fold over the range. The curve is a parabola in the deflection

@@ -97,6 +97,7 @@ def _ensemble_csv(path, *, n_cycles=14, period=1.0, seed=5):
     return lambda ph: 60 + 30 * np.sin(2 * np.pi * ph)
 
 
+@pytest.mark.slow
 def test_ensemble_through_the_cli(tmp_path):
     truth = _ensemble_csv(tmp_path / "ens.csv")
     out = tmp_path / "out"
@@ -138,6 +139,7 @@ def test_short_trigger_pulses_are_found():
     assert list(cycles.rising_edges(marker)) == list(range(100, 15000, 1500))
 
 
+@pytest.mark.slow
 def test_stiffness_by_schedule_of_a_swept_operating_point():
     """A joint whose operating position is swept slowly from −0.3 to 0.3 rad under a smoothed random
     perturbation, the torque the integral of K(s)·dθ with K(s) = 60 + 40·s/0.3 N·m/rad (20 → 100

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "limbstiff"
 #: Calls that change the whole process: choosing matplotlib's backend, switching the collector.

@@ -207,6 +207,7 @@ def test_exp_spring_deformation_and_springs():
         assert trial.metadata["sweep"] == "logarithmic"
 
 
+@pytest.mark.slow
 def test_vsa_motion_ranges_match_documentation(long_links):
     for name in ("paper-vsa-hogan", "paper-vsa-feldman"):
         truth = long_links[name]

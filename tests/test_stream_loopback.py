@@ -26,7 +26,8 @@ from limbstiff.files import lsl  # noqa: E402
 
 from .support.independent_trials import make_trial, suite  # noqa: E402
 
-pytestmark = pytest.mark.skipif(importlib.util.find_spec("pylsl") is None, reason="pylsl not installed")
+pytestmark = [pytest.mark.skipif(importlib.util.find_spec("pylsl") is None, reason="pylsl not installed"),
+              pytest.mark.slow]        # real time: `pytest -m "not slow"` is the inner loop
 FS = 1000.0
 SECONDS = 30.0
 
