@@ -11,7 +11,8 @@ prediction error of the torque on the left-out block. An effect's shape (delay, 
 chosen on the training folds over its grid, at the current model's noise levels; the noise is
 then refitted once, at the shape chosen on all the data. Training steps within a *guard* of the
 held-out block are left out: the zero-phase filter spreads the held-out torque over about two
-corner periods, and a channel shift of up to 50 ms moves it further. Pure numpy: no I/O.
+corner periods, and a channel shift of up to 50 ms moves it further. The folds, the guard and
+the fits of every fold at once are :mod:`limbstiff.heldout`'s. Pure numpy: no I/O.
 """
 
 from __future__ import annotations
