@@ -19,6 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: Folds of a held-out evaluation: each leaves out a fifth of the units and trains on the rest.
+FOLDS = 5
+
 
 @dataclass(frozen=True)
 class Folds:

@@ -34,8 +34,6 @@ from ..filtered import Filtered
 #: Held-out blocks are this many periods of the typical motion long: whole periods, so that a
 #: block holds the excursions that reveal the stiffness, not a fragment the neighbours explain.
 HELDOUT_PERIODS = 2.0
-#: Blocks are dealt to this many folds in turn; each fold is left out once.
-HELDOUT_FOLDS = 5
 #: Fewest folds (blocks) a held-out score is computed on; a trial with fewer is too short.
 MIN_FOLDS = 3
 #: Innovation lags (filter steps) of the whiteness statistic.
@@ -72,7 +70,7 @@ def heldout_explained(filtered: Filtered, *, inertia: float, damping: float, noi
                       reference: np.ndarray | None = None) -> float | None:
     """Share of the torque's variance the model predicts on held-out whole motion periods.
 
-    Blocks of :data:`HELDOUT_PERIODS` motion periods are dealt in turn to :data:`HELDOUT_FOLDS`
+    Blocks of :data:`HELDOUT_PERIODS` motion periods are dealt in turn to :data:`~limbstiff.heldout.FOLDS`
     folds (:mod:`limbstiff.heldout`; no guard: the left-out measurements are not given to the
     filter at all). For each fold the filter and smoother run with that fold's measurements left
     out; across each left-out gap the elastic torque is then carried from the gap's two edges by
@@ -96,7 +94,7 @@ def heldout_explained(filtered: Filtered, *, inertia: float, damping: float, noi
     if len(st.index) < MIN_STEPS:
         return None
     block = np.floor(np.arange(len(st.index)) * st.step * filtered.motion_hz / HELDOUT_PERIODS).astype(int)
-    n_folds = min(HELDOUT_FOLDS, block[-1] + 1)       # a short trial: each of its blocks left out in turn
+    n_folds = min(heldout.FOLDS, block[-1] + 1)       # a short trial: each of its blocks left out in turn
     if n_folds < MIN_FOLDS:
         return None
     folds = heldout.folds_of(block, heldout.interleaved(block, n_folds), guard=0)

@@ -87,7 +87,7 @@ def guard_seconds(channels) -> float:
     return max(FILTER_SPREAD_PERIODS / nominal.effective_cutoff(c) for c in channels) + MAX_SHIFT_S
 
 
-def build_problem(channels, *, blocks: int = 5) -> Problem:
+def build_problem(channels, *, blocks: int = heldout.FOLDS) -> Problem:
     """Steps, units and folds: ``blocks`` contiguous blocks per trial, block j of every trial in fold j.
 
     Raises

@@ -7,7 +7,7 @@ are then linear in the coefficients (:func:`~limbstiff.statespace.linear.innovat
 coefficients are fitted by weighted least squares (weights 1/S) on the training folds, and the
 one-step prediction of the torque is scored, as a Gaussian log density, on the units left out
 (:mod:`limbstiff.heldout`). Units are whole cycles for an ensemble, stretches of the record for a
-schedule, dealt to :data:`HELD_OUT_FOLDS` folds in turn. Training steps within
+schedule, dealt to :data:`~limbstiff.heldout.FOLDS` folds in turn. Training steps within
 :data:`GUARD_CORNER_PERIODS` of a left-out unit are dropped: the zero-phase filter spreads its
 torque that far. Pure numpy: no I/O.
 """
@@ -26,8 +26,6 @@ from ..mechanics.likelihood import MechanicsFit, kalman_mechanics
 from ..statespace.linear import innovations
 from .basis import StiffnessBasis
 
-#: Folds of the held-out prediction.
-HELD_OUT_FOLDS = 5
 #: Corner periods of training data dropped on each side of a left-out unit.
 GUARD_CORNER_PERIODS = 2.0
 
@@ -96,7 +94,7 @@ class Resolution:
         return next(s for s in self.scores if s.knots == knots)
 
     def to_dict(self) -> dict:
-        return {"chosen_knots": self.chosen, "held_out_units": self.n_units, "folds": HELD_OUT_FOLDS,
+        return {"chosen_knots": self.chosen, "held_out_units": self.n_units, "folds": heldout.FOLDS,
                 "tried": [s.to_dict() for s in self.scores]}
 
 
@@ -118,7 +116,7 @@ MIN_UNIT_SHARE = 0.5
 
 
 def heldout_score(e: np.ndarray, var: np.ndarray, unit: np.ndarray, *, guard: int,
-                  folds: int = HELD_OUT_FOLDS) -> ResolutionScore:
+                  folds: int = heldout.FOLDS) -> ResolutionScore:
     """Held-out log density of channel 0 given the others, fitted on the training folds
     (:func:`limbstiff.heldout.regression`).
 
