@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 #: Fewest whole cycles an ensemble analysis takes: the phase's curve pools them, and its
-#: resolution is chosen by leaving whole cycles out (:data:`HELD_OUT_FOLDS` of them at least).
+#: resolution is chosen by leaving whole cycles out (:data:`limbstiff.heldout.FOLDS` of them at least).
 MIN_CYCLES = 5
 #: Rising edges closer than this share of the median spacing to the previous edge are the same
 #: event (a trigger that bounces, a pulse sampled twice).

@@ -180,7 +180,7 @@ class StiffnessResult:
             ``time``: the course with its band, uninformed stretches shaded (page 1's figure);
             ``angle``/``torque``: medians in bins with the band, over the informed samples;
             ``phase``/``schedule``: the curve of an ensemble or a schedule analysis, its band and
-            the cycles' spread (:meth:`ScheduleCurve.plot`).
+            the cycles' spread (:func:`limbstiff.report.plots.plot_curve`).
         reference : bool
             With ``against="time"``, draw the reference stiffness when there is one.
 
@@ -188,14 +188,14 @@ class StiffnessResult:
         -------
         matplotlib.axes.Axes
         """
-        from .report.plots import plot_relation, plot_stiffness
+        from .report.plots import plot_curve, plot_relation, plot_stiffness
         if against == "time":
             return plot_stiffness(self, ax=ax, reference=reference)
         if against in ("phase", "schedule"):
             curve = self.by_phase if against == "phase" else self.by_schedule
             if curve is None:
                 raise ValueError(f"this analysis has no stiffness by {against} (give [cycles] or a schedule column)")
-            return curve.plot(ax=ax)
+            return plot_curve(curve, ax=ax)
         return plot_relation(self, against, ax=ax)
 
     def report(self) -> str:

@@ -451,20 +451,3 @@ def test_effects_of_an_independent_simulator(tmp_path, form, joint, course, expe
     if expected:
         # the effects are 11–34 % of the torque's RMS, 2–6× its noise: most of the gap is theirs
         assert d.candidate(expected[0]).shrink_heldout > 0.5
-
-
-def test_normal_equations_block_by_block_equal_the_dense_ones():
-    # several trials: each trial's nuisance columns are zero on the others' steps, and summing the
-    # normal equations block by block must give exactly the dense product (to rounding)
-    from limbstiff.diagnosis.crossval import _gram
-    rng = np.random.default_rng(0)
-    sizes, own, shared = (100, 120, 90), 4, 2
-    X = np.zeros((sum(sizes), own * len(sizes) + shared))
-    blocks, r0 = [], 0
-    for i, n in enumerate(sizes):
-        cols = np.r_[own * i:own * (i + 1), own * len(sizes):X.shape[1]]
-        X[r0:r0 + n, cols] = rng.normal(size=(n, len(cols)))
-        blocks.append((slice(r0, r0 + n), cols))
-        r0 += n
-    w = (rng.random((4, len(X))) > 0.3).astype(float)
-    np.testing.assert_allclose(_gram(X, w, blocks), np.stack([X.T @ (wk[:, None] * X) for wk in w]), atol=1e-10)

@@ -22,7 +22,8 @@ DOC = ROOT / "docs" / "architecture.md"
 #: (a result's ``to_frame`` may import pandas when called).
 MATHS = ("limbstiff.signals", "limbstiff.filtered", "limbstiff.statespace", "limbstiff.estimate",
          "limbstiff.mechanics", "limbstiff.checks", "limbstiff.coupling", "limbstiff.unmodelled",
-         "limbstiff.simulate", "limbstiff.bandwidth", "limbstiff.trial_level")
+         "limbstiff.simulate", "limbstiff.bandwidth", "limbstiff.trial_level", "limbstiff.heldout",
+         "limbstiff.effects", "limbstiff.cycles", "limbstiff.scheduled")
 FORBIDDEN_IN_MATHS = ("limbstiff.files", "limbstiff.report", "limbstiff.cli", "limbstiff.batch", "matplotlib",
                       "click")
 

@@ -170,6 +170,12 @@ def test_stiffness_by_schedule_of_a_swept_operating_point():
     # room for the smoothing of a curve from 30 s of data (the benchmark asks 5 % of 100 s trials)
     assert ok.mean() > 0.9 and np.median(err) < 0.10
     assert result.summary()["by_schedule"]["unit"] == "rad"
+    # drawn by the report's plot_curve: the curve (pure maths) imports no drawing
+    from matplotlib.figure import Figure
+    ax = Figure().subplots()
+    assert result.plot(ax=ax, against="schedule") is ax and ax.has_data()
+    with pytest.raises(ValueError, match="no stiffness by phase"):
+        result.plot(ax=ax, against="phase")
 
 
 def test_cycles_too_short_and_a_constant_schedule_are_one_line_errors(tmp_path):

@@ -1,8 +1,9 @@
 """What the model checks measure, on the analysis's own Kalman model and filtered signals.
 
 * :func:`heldout_explained`: the share of the recorded torque the model predicts on whole motion
-  periods it was not given (their measurements left out of the filter and smoother, so the
-  elastic torque there is carried across by ds = σ·dy from both sides);
+  periods it was not given (folds of :mod:`limbstiff.heldout`; their measurements left out of
+  the filter and smoother, so the elastic torque there is carried across by ds = σ·dy from both
+  sides);
 * :func:`innovation_statistics`: the one-step prediction errors, which are white and
   unrelated to the motion when the model is right;
 * :func:`elastic_slopes`: the local slope of a torque on the angle, window by window, for the
@@ -21,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import heldout
 from ..statespace import kernels
 from ..estimate.angle_terms import AngleTerms, fit_angle_terms
 from ..statespace.noise import NoiseLevels
@@ -32,8 +34,6 @@ from ..filtered import Filtered
 #: Held-out blocks are this many periods of the typical motion long: whole periods, so that a
 #: block holds the excursions that reveal the stiffness, not a fragment the neighbours explain.
 HELDOUT_PERIODS = 2.0
-#: Blocks are dealt to this many folds in turn; each fold is left out once.
-HELDOUT_FOLDS = 5
 #: Fewest folds (blocks) a held-out score is computed on; a trial with fewer is too short.
 MIN_FOLDS = 3
 #: Innovation lags (filter steps) of the whiteness statistic.
@@ -66,48 +66,16 @@ def _steps(filtered: Filtered, inertia: float, damping: float) -> ModelSteps:
                        motion_frequency=filtered.motion_hz, scale_from=filtered.torque)
 
 
-def heldout_prediction(filtered: Filtered, *, inertia: float, damping: float,
-                       noise: NoiseLevels) -> tuple[np.ndarray, np.ndarray] | None:
-    """The model's prediction of the torque on held-out whole motion periods.
-
-    Blocks of :data:`HELDOUT_PERIODS` motion periods are dealt to :data:`HELDOUT_FOLDS` folds.
-    For each fold the filter and smoother run with that fold's measurements left out; across
-    each left-out gap the elastic torque is then carried from the gap's two edges by ds = σ·dy,
-    with σ a function of the angle fitted to the training steps beside the gap
-    (:func:`_across_gap`). Plus m·ÿ + b·ẏ that is the prediction of the recorded torque.
-
-    Returns
-    -------
-    index : ndarray of int, shape (k,)
-        The samples of the model's steps.
-    torque : ndarray, shape (k,), N·m
-        The torque predicted there, every step held out once.
-    None when the trial has fewer than :data:`MIN_FOLDS` blocks or :data:`MIN_STEPS` steps.
-    """
-    st = _steps(filtered, inertia, damping)
-    if len(st.index) < MIN_STEPS:
-        return None
-    block = np.floor(np.arange(len(st.index)) * st.step * filtered.motion_hz / HELDOUT_PERIODS).astype(int)
-    folds = min(HELDOUT_FOLDS, block[-1] + 1)       # a short trial: each of its blocks left out in turn
-    if folds < MIN_FOLDS:
-        return None
-    fold = block % folds
-    elastic = np.empty(len(st.index))
-    for j in range(folds):
-        left_out = fold == j
-        smoothed = kalman_smoother(st.increments, st.measured, noise, step=st.step, deflection=st.deflection,
-                                   initial_mean=st.initial_mean, initial_cov=st.initial_cov, loglik=False,
-                                   observed=~left_out)
-        for a, b in _runs(left_out):
-            elastic[a:b] = _across_gap(st.angle, smoothed.mean, a, b)
-    i = st.index
-    return i, elastic + inertia * filtered.acceleration[i] + damping * filtered.velocity[i]
-
-
 def heldout_explained(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels,
                       reference: np.ndarray | None = None) -> float | None:
-    """Share of the torque's variance predicted on held-out whole motion periods
-    (:func:`heldout_prediction`).
+    """Share of the torque's variance the model predicts on held-out whole motion periods.
+
+    Blocks of :data:`HELDOUT_PERIODS` motion periods are dealt in turn to :data:`~limbstiff.heldout.FOLDS`
+    folds (:mod:`limbstiff.heldout`; no guard: the left-out measurements are not given to the
+    filter at all). For each fold the filter and smoother run with that fold's measurements left
+    out; across each left-out gap the elastic torque is then carried from the gap's two edges by
+    ds = σ·dy, with σ a function of the angle fitted to the training steps beside the gap
+    (:func:`_across_gap`). Plus m·ÿ + b·ẏ that is the prediction of the recorded torque.
 
     Parameters
     ----------
@@ -118,15 +86,34 @@ def heldout_explained(filtered: Filtered, *, inertia: float, damping: float, noi
     Returns
     -------
     float or None
-        1 − mean((f − f̂)²)/var(f) over the held-out steps (1: perfect, ≤ 0: no better than the
-        mean); None when :func:`heldout_prediction` is None.
+        1 − mean((f − f̂)²)/var(f) over the model's steps, every one held out once (1: perfect,
+        ≤ 0: no better than the mean); None when the trial has fewer than :data:`MIN_FOLDS`
+        blocks or :data:`MIN_STEPS` steps.
     """
-    out = heldout_prediction(filtered, inertia=inertia, damping=damping, noise=noise)
-    if out is None:
+    st = _steps(filtered, inertia, damping)
+    if len(st.index) < MIN_STEPS:
         return None
-    index, predicted = out
-    torque = (filtered.torque if reference is None else reference)[index]
-    return float(1.0 - np.mean((torque - predicted) ** 2) / max(float(np.var(torque)), 1e-300))
+    block = np.floor(np.arange(len(st.index)) * st.step * filtered.motion_hz / HELDOUT_PERIODS).astype(int)
+    n_folds = min(heldout.FOLDS, block[-1] + 1)       # a short trial: each of its blocks left out in turn
+    if n_folds < MIN_FOLDS:
+        return None
+    folds = heldout.folds_of(block, heldout.interleaved(block, n_folds), guard=0)
+    i = st.index
+
+    def predict(k: int) -> np.ndarray:
+        smoothed = kalman_smoother(st.increments, st.measured, noise, step=st.step, deflection=st.deflection,
+                                   initial_mean=st.initial_mean, initial_cov=st.initial_cov, loglik=False,
+                                   observed=folds.training[k])
+        left_out = folds.held(k)
+        elastic = np.empty(len(i))
+        for a, b in _runs(left_out):
+            elastic[a:b] = _across_gap(st.angle, smoothed.mean, a, b)
+        at = i[left_out]
+        return elastic[left_out] + inertia * filtered.acceleration[at] + damping * filtered.velocity[at]
+
+    torque = (filtered.torque if reference is None else reference)[i]
+    scores = heldout.score(folds, torque, predict)
+    return float(1.0 - np.mean(scores.error ** 2) / max(float(np.var(torque)), 1e-300))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

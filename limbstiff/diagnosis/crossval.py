@@ -11,7 +11,8 @@ prediction error of the torque on the left-out block. An effect's shape (delay, 
 chosen on the training folds over its grid, at the current model's noise levels; the noise is
 then refitted once, at the shape chosen on all the data. Training steps within a *guard* of the
 held-out block are left out: the zero-phase filter spreads the held-out torque over about two
-corner periods, and a channel shift of up to 50 ms moves it further. Pure numpy: no I/O.
+corner periods, and a channel shift of up to 50 ms moves it further. The folds, the guard and
+the fits of every fold at once are :mod:`limbstiff.heldout`'s. Pure numpy: no I/O.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import heldout
 from ..statespace.noise import NoiseLevels
 from ..statespace.linear import innovations
 from ..statespace.steps import ModelSteps, channel_steps, deflection
@@ -42,41 +44,38 @@ class Problem:
     channels : tuple of Channels
     layouts : tuple of nominal.ScoringLayout
     guard_s : float, s
-    fold, unit, trial : ndarray of int, shape (R,)
+    folds : heldout.Folds
         Per step (all trials concatenated): held-out block, global unit id (−1: not scored) and
-        trial index.
+        the steps each fold trains on.
+    trial : ndarray of int, shape (R,)
+        Each step's trial index.
     deviation : ndarray, shape (R,), N·m
         f − f̄ per trial (zero where not scored).
-    training : ndarray of bool, shape (K, R)
-        Steps usable for training when fold k is held out.
     """
 
     channels: tuple
     layouts: tuple
     guard_s: float
-    fold: np.ndarray
-    unit: np.ndarray
+    folds: heldout.Folds
     trial: np.ndarray
     deviation: np.ndarray
-    training: np.ndarray
     cache: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def n_folds(self) -> int:
-        return self.training.shape[0]
+        return self.folds.n_folds
 
     @property
     def n_units(self) -> int:
-        return int(self.unit.max()) + 1
+        return self.folds.n_units
 
     @property
     def scored(self) -> np.ndarray:
-        return self.unit >= 0
+        return self.folds.scored
 
-    def unit_sum(self, values: np.ndarray) -> np.ndarray:
-        """Sum of per-step ``values`` within each unit, shape (U,)."""
-        s = self.scored
-        return np.bincount(self.unit[s], weights=values[s], minlength=self.n_units)
+    @property
+    def n_rows(self) -> int:
+        return len(self.trial)
 
     def trial_rows(self, i: int) -> slice:
         start = sum(len(lay.rows) for lay in self.layouts[:i])
@@ -88,7 +87,7 @@ def guard_seconds(channels) -> float:
     return max(FILTER_SPREAD_PERIODS / nominal.effective_cutoff(c) for c in channels) + MAX_SHIFT_S
 
 
-def build_problem(channels, *, blocks: int = 5) -> Problem:
+def build_problem(channels, *, blocks: int = heldout.FOLDS) -> Problem:
     """Steps, units and folds: ``blocks`` contiguous blocks per trial, block j of every trial in fold j.
 
     Raises
@@ -100,25 +99,21 @@ def build_problem(channels, *, blocks: int = 5) -> Problem:
     layouts = tuple(nominal.layout(c, blocks=blocks) for c in channels)
     guard = guard_seconds(channels)
     k = max(lay.n_segments for lay in layouts)
-    fold, unit, trial, dev, training = [], [], [], [], []
-    offset = 0
-    for i, (c, lay) in enumerate(zip(channels, layouts)):
-        fold.append(lay.segment)
-        unit.append(np.where(lay.scored, lay.unit + offset, -1))
-        offset += lay.n_units
-        trial.append(np.full(len(lay.rows), i))
+    # the guard in each trial's steps: those no further than guard_s from a held-out one
+    folds = heldout.joined([heldout.folds_of(lay.unit, lay.segment, guard=guard_steps(guard, lay.step_s), n_folds=k)
+                            for lay in layouts])
+    dev = []
+    for c, lay in zip(channels, layouts):
         f = c.torque[lay.rows]
         dev.append(np.where(lay.scored, f - f[lay.scored].mean(), 0.0))
-        t = c.time[lay.rows]
-        train = np.tile(lay.scored, (k, 1))
-        for j in range(k):
-            held = lay.scored & (lay.segment == j)
-            if held.any():
-                train[j] &= ~((t >= t[held].min() - guard) & (t <= t[held].max() + guard))
-        training.append(train)
-    return Problem(channels=channels, layouts=layouts, guard_s=guard, fold=np.concatenate(fold),
-                   unit=np.concatenate(unit), trial=np.concatenate(trial), deviation=np.concatenate(dev),
-                   training=np.hstack(training))
+    return Problem(channels=channels, layouts=layouts, guard_s=guard, folds=folds,
+                   trial=np.concatenate([np.full(len(lay.rows), i) for i, lay in enumerate(layouts)]),
+                   deviation=np.concatenate(dev))
+
+
+def guard_steps(guard_s: float, step_s: float) -> int:
+    """Steps within ``guard_s`` seconds of a step (those ``guard_s`` away included, to rounding)."""
+    return int(np.floor(guard_s / step_s * (1 + 1e-9)))
 
 
 def compose(ch: Channels, components) -> tuple[Channels, list]:
@@ -224,7 +219,7 @@ class Design:
         """Weighted least squares on several row subsets (bool (K, R)): coefficients (K, P) and
         the weighted residual sums of squares (K,)."""
         w = self.weight
-        return _fold_fits(self.target * w, self.columns * w[:, None], rows, self.blocks)
+        return heldout.fold_fits(self.target * w, self.columns * w[:, None], rows, self.blocks)
 
 
 def design(problem: Problem, components, noise, effect: ModelEffect | None = None, shape: dict | None = None) -> Design:
@@ -233,7 +228,7 @@ def design(problem: Problem, components, noise, effect: ModelEffect | None = Non
     n_own = [ch.n_nuisance for ch in problem.channels]
     k_own = sum(n_own)
     n_shared = per[0].channels.shape[0] - 1 - n_own[0]
-    rows = len(problem.fold)
+    rows = problem.n_rows
     target, weight = np.empty(rows), np.empty(rows)
     columns = np.zeros((rows, k_own + n_shared))
     raw = 0.0
@@ -251,53 +246,6 @@ def design(problem: Problem, components, noise, effect: ModelEffect | None = Non
             last = st.channels[-len(effect.amplitudes):]
             raw += float(np.sum((last - last.mean(axis=1, keepdims=True)) ** 2))
     return Design(target, columns, weight, k_own, tuple(blocks), float(np.sqrt(raw)))
-
-
-def _fold_fits(z: np.ndarray, X: np.ndarray, weights: np.ndarray, blocks=()):
-    """Least squares on several row subsets at once, by the normal equations.
-
-    Parameters
-    ----------
-    z : ndarray, shape (R,)
-    X : ndarray, shape (R, p)
-    weights : ndarray of bool, shape (K, R)
-        Rows of each fit.
-    blocks : sequence of (slice, ndarray of int), optional
-        Row blocks and the only columns not zero on them (each trial's own and the shared ones):
-        the normal equations are summed block by block, which with several trials costs a small
-        fraction of the dense product.
-
-    Returns
-    -------
-    coef : ndarray, shape (K, p)
-    rss : ndarray, shape (K,)
-        Residual sums of squares on the rows of each fit.
-    """
-    w = weights.astype(float)
-    zz = w @ (z * z)
-    p = X.shape[1]
-    if p == 0:
-        return np.zeros((len(w), 0)), zz
-    scale = np.linalg.norm(X, axis=0)
-    scale[scale == 0] = 1.0
-    Xs = X / scale
-    gram = _gram(Xs, w, blocks or ((slice(None), np.arange(p)),))
-    rhs = (w * z) @ Xs
-    coef_s = np.einsum("kpq,kq->kp", np.linalg.pinv(gram, rcond=1e-10, hermitian=True), rhs)
-    rss = zz - np.einsum("kp,kp->k", coef_s, rhs)
-    return coef_s / scale, np.maximum(rss, 0.0)
-
-
-def _gram(X: np.ndarray, w: np.ndarray, blocks) -> np.ndarray:
-    """Σ_r w_kr·x_r·x_rᵀ for each row subset k (K, p, p), block by block; one BLAS product per
-    subset and block (several times faster than one einsum over all of them)."""
-    gram = np.zeros((len(w), X.shape[1], X.shape[1]))
-    for rows, cols in blocks:
-        xb = X[rows][:, cols]
-        idx = np.ix_(cols, cols)
-        for k, wk in enumerate(w[:, rows]):
-            gram[k][idx] += xb.T @ (wk[:, None] * xb)
-    return gram
 
 
 @dataclass
@@ -347,7 +295,7 @@ class Evaluation:
 def _choose_shapes(problem: Problem, base_components, effect, shapes, noise):
     """Each fold's shape (best weighted fit on its training steps) and the shape best on all."""
     k = problem.n_folds
-    rows = np.vstack([problem.training, problem.scored[None]])
+    rows = np.vstack([problem.folds.training, problem.scored[None]])
     best = np.full(k + 1, np.inf)
     chosen = [None] * (k + 1)
     for shape in shapes:
@@ -360,14 +308,11 @@ def _choose_shapes(problem: Problem, base_components, effect, shapes, noise):
 def _heldout_errors(problem: Problem, base_components, noise, effect, fold_shapes) -> np.ndarray:
     """One-step prediction errors (R,) of each fold's held-out steps, the coefficients fitted on
     its training steps at its shape (zero where not scored), N·m."""
-    held = np.zeros(len(problem.fold))
+    held = np.zeros(problem.n_rows)
     for sh in {tuple(sorted(s.items())) for s in fold_shapes}:
         folds = [j for j, s in enumerate(fold_shapes) if tuple(sorted(s.items())) == sh]
         d = design(problem, base_components, noise, effect, dict(sh))
-        coefs, _ = d.fit(problem.training[folds])
-        for j, coef in zip(folds, coefs):
-            test = problem.scored & (problem.fold == j)
-            held[test] = d.target[test] - d.columns[test] @ coef
+        held += heldout.regression(problem.folds, d.target, d.columns, d.weight, which=folds, blocks=d.blocks).error
     return held
 
 
@@ -412,7 +357,7 @@ def evaluate(problem: Problem, base_components, effect: ModelEffect | None = Non
         for ch in problem.channels:
             mech.append(tuple(float(v) for v in coef[k:k + 2]) if ch.identified else None)
             k += ch.n_nuisance
-    return Evaluation(effect=None if effect is None else effect.name, unit_rss=problem.unit_sum(held ** 2),
+    return Evaluation(effect=None if effect is None else effect.name, unit_rss=problem.folds.unit_sum(held ** 2),
                       shape=dict(shape), coef=shared[p_shared - p_new:], base_coef=shared[:p_shared - p_new],
                       mechanics=mech, rss_train=float(np.sum(resid ** 2)), fitted=np.where(problem.scored, fitted, 0.0),
                       residual=resid, noise=list(noise), fold_shapes=list(fold_shapes), share=share)

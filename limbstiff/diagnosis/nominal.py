@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import heldout
 from ..estimate.observer import informed_samples
 from ..statespace.linear import marginal
 from ..statespace.noise import NoiseLevels, nelder_mead, noise_bounds
@@ -85,7 +86,7 @@ class ScoringLayout:
         False during the filter's settling time.
     unit, window, segment : ndarray of int, shape (r,)
         Unit (numbered within the trial, −1 when not scored), time window of
-        :data:`UNITS_PER_WINDOW` units, and held-out block of each step.
+        :data:`UNITS_PER_WINDOW` units, and held-out block of each step (−1 when not scored).
     decimation : int
         Samples per step.
     unit_s, window_s, step_s : float
@@ -141,9 +142,7 @@ def layout(ch: Channels, *, blocks: int) -> ScoringLayout:
     unit = np.full(len(rows), -1)
     for u, part in enumerate(np.array_split(np.arange(settle, len(rows)), n_units)):
         unit[part] = u
-    segment = np.zeros(len(rows), dtype=int)
-    for s, units in enumerate(np.array_split(np.arange(n_units), min(blocks, n_units))):
-        segment[np.isin(unit, units)] = s
+    segment = heldout.contiguous(unit, blocks)
     window = np.maximum(unit, 0) // UNITS_PER_WINDOW
     return ScoringLayout(trial=ch.name, rows=rows, scored=unit >= 0, unit=unit, window=window, segment=segment,
                   decimation=decimation, unit_s=unit_rows * step_s, window_s=UNITS_PER_WINDOW * unit_rows * step_s,

@@ -92,11 +92,6 @@ class ScheduleCurve:
                 "cycle_spread": None if self.against != "phase" else
                 {"p10": _floats(self.spread_lo), "p90": _floats(self.spread_hi)}}
 
-    def plot(self, ax=None, **kwargs):
-        """Draw the curve, its band and the cycles' spread on ``ax`` (:func:`limbstiff.report.plots.plot_curve`)."""
-        from ..report.plots import plot_curve
-        return plot_curve(self, ax=ax, **kwargs)
-
 
 def _floats(x: np.ndarray) -> list:
     return [None if not np.isfinite(v) else float(v) for v in x]

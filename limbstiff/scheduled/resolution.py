@@ -5,10 +5,11 @@ the model — m, b, the effects in the model and the curve's weights as linear c
 walk for the rest — has its noise levels fitted by maximum marginal likelihood. Its innovations
 are then linear in the coefficients (:func:`~limbstiff.statespace.linear.innovations`): the
 coefficients are fitted by weighted least squares (weights 1/S) on the training folds, and the
-one-step prediction of the torque is scored, as a Gaussian log density, on the units left out.
-Units are whole cycles for an ensemble, stretches of the record for a schedule; fold k leaves out
-every :data:`HELD_OUT_FOLDS`-th unit. Training steps within :data:`GUARD_CORNER_PERIODS` of a
-left-out unit are dropped: the zero-phase filter spreads its torque that far. Pure numpy: no I/O.
+one-step prediction of the torque is scored, as a Gaussian log density, on the units left out
+(:mod:`limbstiff.heldout`). Units are whole cycles for an ensemble, stretches of the record for a
+schedule, dealt to :data:`~limbstiff.heldout.FOLDS` folds in turn. Training steps within
+:data:`GUARD_CORNER_PERIODS` of a left-out unit are dropped: the zero-phase filter spreads its
+torque that far. Pure numpy: no I/O.
 """
 
 from __future__ import annotations
@@ -18,14 +19,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import heldout
 from ..filtered import Filtered
 from ..mechanics.identification import mechanics_problem
 from ..mechanics.likelihood import MechanicsFit, kalman_mechanics
 from ..statespace.linear import innovations
 from .basis import StiffnessBasis
 
-#: Folds of the held-out prediction.
-HELD_OUT_FOLDS = 5
 #: Corner periods of training data dropped on each side of a left-out unit.
 GUARD_CORNER_PERIODS = 2.0
 
@@ -94,16 +94,8 @@ class Resolution:
         return next(s for s in self.scores if s.knots == knots)
 
     def to_dict(self) -> dict:
-        return {"chosen_knots": self.chosen, "held_out_units": self.n_units, "folds": HELD_OUT_FOLDS,
+        return {"chosen_knots": self.chosen, "held_out_units": self.n_units, "folds": heldout.FOLDS,
                 "tried": [s.to_dict() for s in self.scores]}
-
-
-def _guarded(held: np.ndarray, guard: int) -> np.ndarray:
-    """Steps within ``guard`` steps of a held-out step (the held-out ones included)."""
-    if guard <= 0:
-        return held
-    kernel = np.ones(2 * guard + 1)
-    return np.convolve(held.astype(float), kernel, mode="same") > 0
 
 
 def _settled(unit: np.ndarray, restart: np.ndarray, guard: int) -> np.ndarray:
@@ -124,8 +116,9 @@ MIN_UNIT_SHARE = 0.5
 
 
 def heldout_score(e: np.ndarray, var: np.ndarray, unit: np.ndarray, *, guard: int,
-                  folds: int = HELD_OUT_FOLDS) -> ResolutionScore:
-    """Held-out log density of channel 0 given the others, fitted on the training folds.
+                  folds: int = heldout.FOLDS) -> ResolutionScore:
+    """Held-out log density of channel 0 given the others, fitted on the training folds
+    (:func:`limbstiff.heldout.regression`).
 
     Parameters
     ----------
@@ -143,36 +136,19 @@ def heldout_score(e: np.ndarray, var: np.ndarray, unit: np.ndarray, *, guard: in
     ResolutionScore
         Its ``knots`` is 0: the caller's to set.
     """
-    n_units = int(unit.max()) + 1
-    fold = np.where(unit >= 0, unit % folds, -1)
-    w = 1.0 / var
-    log_density, error = np.zeros(e.shape[1]), np.zeros(e.shape[1])
-    resid_ss = total_ss = 0.0
-    for k in range(folds):
-        held = fold == k
-        if not held.any():
-            continue
-        train = (fold >= 0) & ~_guarded(held, guard)
-        x, y = e[1:, train].T, e[0, train]
-        theta = np.linalg.lstsq(x * np.sqrt(w[train, None]), y * np.sqrt(w[train]), rcond=None)[0] \
-            if x.shape[1] else np.zeros(0)
-        r = e[0, held] - theta @ e[1:, held]
-        error[held] = r * r / var[held]
-        log_density[held] = -0.5 * (np.log(2 * np.pi * var[held]) + error[held])
-        resid_ss += float(r @ r)
-        total_ss += float(np.sum((e[0, held] - e[0, held].mean()) ** 2))
-    scored = unit >= 0
-    per_unit = np.bincount(unit[scored], weights=log_density[scored], minlength=n_units)
-    steps = np.bincount(unit[scored], minlength=n_units)
+    folds = heldout.folds_of(unit, heldout.interleaved(unit, folds), guard=guard, n_folds=folds)
+    weight = 1.0 / np.sqrt(var)
+    scores = heldout.regression(folds, e[0], e[1:].T, weight)
+    error = scores.error ** 2 / var
+    per_unit = folds.unit_sum(-0.5 * (np.log(2 * np.pi * var) + error))
+    steps = folds.unit_sum(np.ones(len(var)))
     with np.errstate(invalid="ignore", divide="ignore"):
-        unit_error = np.bincount(unit[scored], weights=error[scored], minlength=n_units) / steps
+        unit_error = folds.unit_sum(error) / steps
     unit_error[steps < MIN_UNIT_SHARE * np.median(steps[steps > 0])] = np.nan
-    x, y = e[1:, scored].T, e[0, scored]
-    theta = np.linalg.lstsq(x * np.sqrt(w[scored, None]), y * np.sqrt(w[scored]), rcond=None)[0] \
-        if x.shape[1] else np.zeros(0)
-    r = y - theta @ e[1:, scored]
-    return ResolutionScore(0, float(per_unit.sum()), per_unit, 1.0 - resid_ss / max(total_ss, 1e-300),
-                           unit_error, float(np.mean(r * r / var[scored])))
+    # what the model expects of itself: the coefficients fitted on every scored step
+    _, rss = heldout.fold_fits(e[0] * weight, e[1:].T * weight[:, None], folds.scored[None])
+    return ResolutionScore(0, float(per_unit.sum()), per_unit, scores.explained, unit_error,
+                           float(rss[0]) / int(folds.scored.sum()))
 
 
 def choose_resolution(filtered: Filtered, bases: dict[int, StiffnessBasis], columns, unit: np.ndarray, *,
