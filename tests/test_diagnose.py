@@ -13,7 +13,7 @@ from click.testing import CliRunner
 
 from limbstiff.cli import main
 from limbstiff.diagnosis import selection, where
-from limbstiff.effects.candidates import CANDIDATES
+from limbstiff.effects.registry import CANDIDATES
 from limbstiff.effects.kinds import ModelEffect, TorqueEffect, remove
 from limbstiff.diagnosis.run import diagnose
 from limbstiff.files import write_trial

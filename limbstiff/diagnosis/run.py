@@ -25,7 +25,7 @@ from ..trial import Trial
 from . import crossval, nominal, residual, selection
 from .bias import median_stiffness, stiffness_change
 from ..effects.channels import channels_from
-from ..effects.candidates import CANDIDATES
+from ..effects.registry import CANDIDATES
 from ..effects.kinds import MechanicsOffset
 from .per_trial import chosen_fits, disagreements, trial_selections
 from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StepScore, StiffnessBias,
