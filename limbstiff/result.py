@@ -14,7 +14,7 @@ import numpy as np
 
 from . import __version__
 from .bandwidth import CornerScan
-from .checks import ModelChecks
+from .checks import ModelChecks, Verdict
 from .coupling import CouplingFit
 from .estimate.estimators import EstimatorFit
 from .statespace.noise import NoiseLevels
@@ -145,7 +145,7 @@ class StiffnessResult:
         return None if self.identification is None else self.identification.posterior
 
     @property
-    def verdict(self) -> str | None:
+    def verdict(self) -> Verdict | None:
         """``ok``, ``caution`` or ``unreliable`` (:class:`~limbstiff.checks.ModelChecks`)."""
         return None if self.checks is None else self.checks.verdict
 

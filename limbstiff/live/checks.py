@@ -51,8 +51,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..checks.model import WHITENESS_LAGS, largest_autocorrelation
-from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
-                              NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, WHITENESS_MAX)
+from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
+                              NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, NO_ESTIMATE, UNRELIABLE, WHITENESS_MAX,
+                              Verdict)
 
 #: Standard errors |β| must exceed for the tracking check (a two-sided test at 0.27 %; not fitted).
 TRACKING_Z = 3.0
@@ -60,9 +61,9 @@ TRACKING_Z = 3.0
 WINDOW_PERIODS, WINDOW_MIN_S = 10.0, 5.0
 #: Share of informed samples below which the verdict is ``caution`` (as the offline warning).
 MOTION_MIN = 0.5
-#: Verdict codes of the ``verdict`` channel: no estimate yet (warming up), ok, caution, unreliable.
-NO_ESTIMATE, OK, CAUTION, UNRELIABLE = -1, 0, 1, 2
-VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", OK: "ok", CAUTION: "caution", UNRELIABLE: "unreliable"}
+#: Codes of the ``verdict`` channel and what they mean: no estimate yet (warming up), then each
+#: :class:`~limbstiff.checks.verdict.Verdict`'s code.
+VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", **{v.code: v.value for v in Verdict}}
 #: Lags of the whiteness statistic, as offline; a window is judged once it holds more than twice as many steps.
 LAGS = WHITENESS_LAGS
 #: Binomial standard errors the hindsight share may exceed 1 − ci_level by (one-sided 2.3 %; not fitted).
@@ -100,8 +101,8 @@ class LiveChecks:
     hindsight : Hindsight or None
         The last look back (an identification's or a noise refit's) that could be judged; None
         before one could.
-    verdict : int
-        :data:`OK`, :data:`CAUTION` or :data:`UNRELIABLE`.
+    verdict : Verdict
+        ``ok``, ``caution`` or ``unreliable`` (its :attr:`~Verdict.code` is published).
     failed : tuple of str
         The names of the failed checks.
     """
@@ -114,7 +115,7 @@ class LiveChecks:
     band_width: float
     negative_share: float
     hindsight: "Hindsight | None"
-    verdict: int
+    verdict: Verdict
     failed: tuple[str, ...]
 
 
@@ -273,6 +274,6 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
         severity["band_width"] = CAUTION
     if negative > NEGATIVE_SHARE_MAX:
         severity["negative_stiffness"] = UNRELIABLE
-    verdict = max(severity.values(), default=OK)
+    verdict = Verdict.worst(severity.values())
     return LiveChecks(motion=motion, explained=explained, tracking=tracking, moved=moved, whiteness=white, band_width=width,
                       negative_share=negative, hindsight=looked_back, verdict=verdict, failed=tuple(severity))

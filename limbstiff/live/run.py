@@ -380,7 +380,7 @@ def _summary(settings, description, session, stopped, latency, offsets, paths, n
             "tracking": checks.tracking, "moved": checks.moved,
             "whiteness": checks.whiteness, "band_width": checks.band_width,
             "negative_share": checks.negative_share, "hindsight": checks.hindsight,
-            "verdict": VERDICT_NAMES[checks.verdict],
+            "verdict": checks.verdict.value,
             "failed": list(checks.failed)},
         "latency": latency.summary(), "notes": notes, "seed": settings.seed, "software": software(),
     })
