@@ -49,6 +49,9 @@ OK, CAUTION, UNRELIABLE = Verdict.OK, Verdict.CAUTION, Verdict.UNRELIABLE
 #: The code a live stream publishes while it has no estimate (warming up), beside :attr:`Verdict.code`.
 NO_ESTIMATE = -1
 
+#: Share of the samples informed by motion below which the analysis warns that the motion informs too
+#: little of the trial, and the live verdict is ``caution``: half the trial without an estimate of its own.
+MOTION_MIN = 0.5
 #: Held-out share of the torque explained below which the verdict is ``caution``, and
 #: ``unreliable``. Clean simulated trials: 0.99–1.00; simulated effects that bias the stiffness
 #: 5–35 %: 0.84–0.96; real trials the model fits: 0.68 (z_df), 0.74 (z_df3), 0.84 (z_df2); the

@@ -2,8 +2,8 @@
 
 Over the last :data:`WINDOW_PERIODS` motion periods of model steps (at least :data:`WINDOW_MIN_S`):
 
-* motion — the share of samples the data inform (the band not 3× its typical width): below 50 %
-  the verdict is ``caution`` (the offline analysis warns at the same share);
+* motion — the share of samples the data inform (the band not 3× its typical width): below
+  :data:`~limbstiff.checks.verdict.MOTION_MIN` the verdict is ``caution`` (the offline analysis warns there);
 * torque explained — 1 − Σe²/Σ(z − z̄)², e the one-step prediction errors of z = f − m·ÿ − b·ẏ: the
   offline held-out thresholds (:data:`~limbstiff.checks.verdict.HELDOUT_CAUTION`,
   :data:`~limbstiff.checks.verdict.HELDOUT_UNRELIABLE`). A one-step prediction is easier than the
@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..checks.model import WHITENESS_LAGS, largest_autocorrelation
-from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
+from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE, MOTION_MIN,
                               NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, NO_ESTIMATE, UNRELIABLE, WHITENESS_MAX,
                               Verdict)
 
@@ -59,8 +59,6 @@ from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, CAUTION, HELDOUT_CA
 TRACKING_Z = 3.0
 #: The window the checks look back over, in motion periods, and at least this many seconds.
 WINDOW_PERIODS, WINDOW_MIN_S = 10.0, 5.0
-#: Share of informed samples below which the verdict is ``caution`` (as the offline warning).
-MOTION_MIN = 0.5
 #: Codes of the ``verdict`` channel and what they mean: no estimate yet (warming up), then each
 #: :class:`~limbstiff.checks.verdict.Verdict`'s code.
 VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", **{v.code: v.value for v in Verdict}}
