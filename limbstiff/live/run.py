@@ -30,7 +30,7 @@ from ..files.columns import in_si, resolve_columns
 from ..files.outputs import jsonable, write_json
 from ..files.recording import GrowingTable, SegmentedRecording
 from ..protocol import Protocol
-from ..result import software
+from ..provenance import software
 from .checks import VERDICT_NAMES
 from .latency import Latency
 from .session import MEMORY_PERIODS, REFIT_EVERY_S, WARMUP_S, Identifier, LiveSession
