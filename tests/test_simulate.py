@@ -299,10 +299,13 @@ def test_one_registry_for_simulator_and_model():
     from limbstiff.protocol import MODEL_EFFECTS
     assert CANDIDATES == {n: e.model for n, e in EFFECTS.items() if e.model is not None}
     assert set(EFFECTS) - set(CANDIDATES) == {"gravity", "sensor_drift"}
+    assert all((e.model is None) == bool(e.held_by_nominal) for e in EFFECTS.values())
     assert IN_MODEL == MODEL_EFFECTS
     reflex = EFFECTS["reflex"]
     with pytest.raises(ValueError, match="holds the model of"):
         replace(reflex, model=CANDIDATES["hysteresis"])
+    with pytest.raises(ValueError, match="one of them"):
+        replace(reflex, model=None)
 
 
 def test_elbow_reference_defaults():

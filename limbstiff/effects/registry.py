@@ -55,6 +55,8 @@ class Effect:
         needed to size them).
     model : ModelEffect or None
         How the model holds it (named like the effect); None when the nominal model already does.
+    held_by_nominal : str or None
+        Why the nominal model already holds it (for an effect without ``model``), one sentence.
     defaults : Mapping[str, float]
         Default parameters for the human elbow (``REFERENCE_SCALES``).
     """
@@ -66,11 +68,14 @@ class Effect:
     build: Callable = field(repr=False)
     scaled: bool = True
     model: ModelEffect | None = field(default=None, repr=False)
+    held_by_nominal: str | None = None
     defaults: Mapping[str, float] = field(init=False)
 
     def __post_init__(self):
         if self.model is not None and self.model.name != self.name:
             raise ValueError(f"effect {self.name!r} holds the model of {self.model.name!r}")
+        if (self.model is None) == (self.held_by_nominal is None):
+            raise ValueError(f"effect {self.name!r}: a model, or why the nominal model holds it (one of them)")
         object.__setattr__(self, "defaults", self.defaults_for(REFERENCE_SCALES))
 
     def defaults_for(self, scales: Mapping[str, float]) -> dict[str, float]:
@@ -79,11 +84,12 @@ class Effect:
 
 
 def _effect(name: str, kind: str, sizes: Callable, build: Callable, doc: str, *, scaled: bool = True,
-            model: type | None = None, **how) -> Effect:
+            model: type | None = None, held_by_nominal: str | None = None, **how) -> Effect:
     """One entry: ``model`` the :class:`~.kinds.ModelEffect` class and ``how`` its fields (its name is the
     effect's)."""
     return Effect(name=name, description=" ".join(doc.split()), kind=kind, sizes=sizes, build=build,
-                  scaled=scaled, model=None if model is None else model(name=name, **how))
+                  scaled=scaled, model=None if model is None else model(name=name, **how),
+                  held_by_nominal=held_by_nominal)
 
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in (
@@ -182,14 +188,19 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
             sin(angle_offset)), the sign of the paper's link (destabilising about the upright
             position; the static weight at the operating point is taken as compensated).
             mgl = 20 % of the smallest stiffness, so the joint stays stable but looks 20 %
-            softer."""),
+            softer.""",
+            held_by_nominal="a torque that depends on the angle alone is a generalized stiffness, which the model "
+            "holds (its static nonlinear spring and its walking stiffness); it cannot be told from stiffness in these "
+            "data"),
     _effect("sensor_drift", "measurement",
             lambda s: {"slope": 0.005 * s["torque"], "random_walk": 0.02 * s["torque"],
                        "knot_interval": 1.0},
             sensor_drift_record, """Torque sensor drift (thermal strain-gauge drift): slope·t plus a
             low-frequency random walk (spline through knots `knot_interval` s apart). Slope
             0.5 %·RMS torque per second and walk intensity 2 %·RMS torque/√s: over 30 s about
-            15 % and 10 % of the RMS torque."""),
+            15 % and 10 % of the RMS torque.""",
+            held_by_nominal="a slow drift of the torque offset is a walk of the elastic torque, which the model "
+            "holds (its torque walk Q_s)"),
     _effect("inertia_error", "dynamics",
             lambda s: {"fraction": 0.2},
             scale_error("inertia_scale"), """The true inertia is the nominal one × (1 +
