@@ -151,8 +151,9 @@ class Check:
     passed : bool
     message : str
         What the value means, in plain words, and what to do when it failed.
-    severity : Verdict
-        The verdict the check gives when it fails (``caution`` or ``unreliable``).
+    severity : Verdict or str
+        The verdict the check gives when it fails (``caution`` or ``unreliable``; a string is taken as
+        its :class:`Verdict`).
     """
 
     name: str
@@ -161,6 +162,9 @@ class Check:
     passed: bool
     message: str
     severity: Verdict = CAUTION
+
+    def __post_init__(self):
+        object.__setattr__(self, "severity", Verdict(self.severity))
 
     def to_dict(self) -> dict:
         return {"name": self.name, "value": self.value, "threshold": self.threshold, "passed": self.passed,
