@@ -88,6 +88,7 @@ def _positive(params: Mapping[str, float], *keys: str) -> None:
 # --- dynamics -------------------------------------------------------------------------------
 
 def coulomb_term(p):
+    """F_c·tanh(ẏ/v_ε): ``friction_torque`` F_c, N·m; ``smoothing_velocity`` v_ε, rad/s."""
     _positive(p, "smoothing_velocity")
     fc, ve = p["friction_torque"], p["smoothing_velocity"]
     return DynamicsTerm(torque=lambda y, v, z, vd, lib: fc * coulomb(v, ve, lib),
@@ -95,11 +96,13 @@ def coulomb_term(p):
 
 
 def quadratic_term(p):
+    """c·ẏ|ẏ|: ``coefficient`` c, N·m·s²/rad²."""
     c = p["coefficient"]
     return DynamicsTerm(torque=lambda y, v, z, vd, lib: c * v * abs(v))
 
 
 def hysteresis_term(p):
+    """The Dahl state z as a torque: ``amplitude`` F, N·m; ``characteristic_angle`` y_c, rad."""
     _positive(p, "characteristic_angle")
     f, yc = p["amplitude"], p["characteristic_angle"]
     return DynamicsTerm(
@@ -110,6 +113,7 @@ def hysteresis_term(p):
 
 
 def reflex_term(p):
+    """direction·g·[direction·ẏ(t − delay)]₊: ``gain`` g, N·m·s/rad; ``delay``, s; ``direction`` ±1."""
     _positive(p, "delay")
     g, d, s = p["gain"], p["delay"], p["direction"]
     if s not in (1.0, -1.0):
@@ -119,6 +123,7 @@ def reflex_term(p):
 
 
 def gravity_term(p):
+    """−mgl·(sin(y + angle_offset) − sin(angle_offset)): ``mgl``, N·m; ``angle_offset``, rad."""
     mgl, off = p["mgl"], p["angle_offset"]
     bias = mgl * math.sin(off)
     return DynamicsTerm(torque=lambda y, v, z, vd, lib: bias + mgl * gravity(y, off, lib),
@@ -126,6 +131,8 @@ def gravity_term(p):
 
 
 def scale_error(key):
+    """The builder of a true inertia or damping (``key``: ``inertia_scale``, ``damping_scale``) of
+    1 + ``fraction`` times the nominal one."""
     def build(p):
         if not p["fraction"] > -1:
             raise ValueError(f"effect parameter 'fraction' must be > -1, got {p['fraction']}")
@@ -136,12 +143,14 @@ def scale_error(key):
 # --- measurement ----------------------------------------------------------------------------
 
 def backlash_record(p):
+    """The recorded angle through a play of total ``width``, rad."""
     _positive(p, "width")
     w = p["width"]
     return Measurement(lambda t, angle, torques, rng: (play(angle, w), torques))
 
 
 def time_delay_record(p):
+    """The torque channels recorded ``delay`` s late."""
     d = p["delay"]
     return Measurement(lambda t, angle, torques, rng: (
         angle, {k: delay_signal(t, x, d) for k, x in torques.items()}))
@@ -171,6 +180,7 @@ def drift(t: np.ndarray, rng: np.random.Generator, slope: float, random_walk: fl
 
 
 def sensor_drift_record(p):
+    """The torque channels plus a drawn drift (:func:`drift`): ``slope``, ``random_walk``, ``knot_interval``."""
     _positive(p, "knot_interval")
     return Measurement(lambda t, angle, torques, rng: (angle, {
         k: x + drift(t, rng, p["slope"], p["random_walk"], p["knot_interval"])
