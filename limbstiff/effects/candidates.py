@@ -13,11 +13,8 @@ f = m·ÿ + b·ẏ + s(y, t) either
 
 The shapes φ and the grids are here. A torque φ is computed from the filtered signals and passed
 through the same low-pass as the recorded torque. Grids come from the trial's own scales
-(:class:`~.kinds.Scales`), with the reason stated beside each in the registry. Not held: gravity and
-sensor drift. A torque that depends on the angle alone (gravity on an unbalanced segment) is a
-generalized stiffness, which the model holds (its static nonlinear spring and its time-varying
-stiffness), and a slow drift of the torque offset is a walk of the elastic torque (Q_s). Pure
-numpy/scipy: no I/O.
+(:class:`~.kinds.Scales`), with the reason stated beside each in the registry, which also says why
+gravity and sensor drift need no model part (``held_by_nominal``). Pure numpy/scipy: no I/O.
 
 Sign convention (as the simulator): the effect torque e is on the left-hand side,
 f = m·ÿ + b·ẏ + s + e, so a positive friction torque opposes motion.
