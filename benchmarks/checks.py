@@ -181,7 +181,7 @@ def run_independent(seeds, jobs: int) -> list[dict]:
 
 def main(seeds: int, jobs: int, duration: float, independent_seeds=(), first: int = 1,
          rows_path: Path | None = None) -> str:
-    from limbstiff.simulate import SIMULATED_EFFECTS as EFFECTS, SCENARIOS as KNOWN
+    from limbstiff.simulate import EFFECTS, SCENARIOS as KNOWN
     scenarios = [s for s in LIMBS + PAPER if s in KNOWN]
     own_seeds = range(first, first + seeds)
     work = [(sc, eff, seed, duration) for sc in scenarios for eff in ((None, *EFFECTS) if sc in LIMBS else (None,))
@@ -214,7 +214,7 @@ def from_rows(paths) -> str:
 
 
 def report(rows, independent, *, wall, wall_independent, jobs, first, seeds, independent_seeds, duration) -> str:
-    from limbstiff.simulate import SIMULATED_EFFECTS as EFFECTS, SCENARIOS as KNOWN
+    from limbstiff.simulate import EFFECTS, SCENARIOS as KNOWN
     scenarios = [s for s in LIMBS + PAPER if s in KNOWN]
     own_seeds = range(first, first + seeds)
     lines = ["## Model checks and the verdict (`benchmarks/checks.py`)", "",

@@ -25,7 +25,7 @@ from .checks.analysis import sign_hint
 from .checks.model import angle_terms_on
 from .checks.reflex import ReflexShift, reflex_check
 from .checks.units import implausible_inertia, plausible, units_checks
-from .checks.verdict import ModelChecks
+from .checks.verdict import MOTION_MIN, ModelChecks
 from .effects.in_model import ShapeProfile, filtered_without, reflex_probe, reflex_shift, terms_for
 from .errors import TrialError
 from .estimate import estimators, observer
@@ -393,7 +393,7 @@ def _warnings(trial: Trial, ident: Identification | None, observable: np.ndarray
             lo, hi = ident.expected_inertia
             warnings.append(f"identified inertia {ident.inertia.median:.4g} is outside the range expected for "
                             f"this set-up ({lo:g}–{hi:g})")
-    if observable.mean() < 0.5:
+    if observable.mean() < MOTION_MIN:
         warnings.append(f"only {100 * observable.mean():.0f} % of the trial is informed by motion")
     return tuple(warnings)
 

@@ -24,7 +24,7 @@ QUANTITIES = ("time", "angle", "torque", "elastic_torque", "stiffness_true", "sc
 VARIANTS = ("auto", "external", "direct")
 ESTIMATORS = ("kalman", "observer-smoothed", "observer")
 #: Unmodelled effects an analysis can put in its model (``[mechanics] effects``, ``--effect``): the torque
-#: effects of the library (:data:`limbstiff.effects.in_model.IN_MODEL`, which a test holds equal).
+#: effects of the registry (:data:`limbstiff.effects.registry.IN_MODEL`, which checks them equal at import).
 MODEL_EFFECTS = ("coulomb_friction", "quadratic_damping", "hysteresis", "reflex")
 DISCRETISATIONS = ("exact", "euler")
 DERIVATIVES = ("zero-phase", "paper")

@@ -1,8 +1,9 @@
-"""Provenance of a result: software versions and a short hash of the settings.
+"""Provenance of a result: the software block and a short hash of the settings.
 
-Standard library only, and no dependency is imported to learn its version (the installed
-distribution's metadata is read instead), so this module is cheap to import anywhere —
-``summary.json`` and the PDF reports use the same values.
+:func:`software` is the one provenance block of every JSON output (``summary.json``,
+``posterior.json``, ``diagnosis.json``, a live session's ``stream.json``), and the PDF footers
+read theirs from it. Standard library only, and no dependency is imported to learn its version
+(the installed distribution's metadata is read instead), so this module is cheap to import anywhere.
 """
 
 from __future__ import annotations
@@ -10,8 +11,11 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import platform
 from importlib import metadata
 from typing import Any, Mapping
+
+from . import __version__
 
 #: Distributions whose versions are recorded, in this order.
 DEPENDENCIES = ("numpy", "scipy", "pandas", "emcee", "matplotlib", "numba")
@@ -39,6 +43,24 @@ def dependency_versions() -> dict[str, str]:
         A new dict each call (the cached values cannot be changed through it).
     """
     return dict(_dependency_versions())
+
+
+def software() -> dict:
+    """The provenance block: limbstiff's name and version, the Python version and the dependencies'
+    versions (:func:`dependency_versions`).
+
+    Returns
+    -------
+    dict
+        ``{"name": "limbstiff", "version", "python", "dependencies"}``, JSON-ready; a new dict each call.
+    """
+    return {"name": "limbstiff", "version": __version__, "python": platform.python_version(),
+            "dependencies": dependency_versions()}
+
+
+def dependencies_text(block: Mapping[str, Any]) -> str:
+    """The dependencies of a :func:`software` block as one line, ``numpy 2.1.3, scipy 1.14.1, …``."""
+    return ", ".join(f"{k} {v}" for k, v in block["dependencies"].items())
 
 
 def settings_hash(settings: Mapping[str, Any], length: int = 12) -> str:

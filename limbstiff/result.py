@@ -12,9 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import __version__
 from .bandwidth import CornerScan
-from .checks import ModelChecks
+from .checks import ModelChecks, Verdict
 from .coupling import CouplingFit
 from .estimate.estimators import EstimatorFit
 from .statespace.noise import NoiseLevels
@@ -27,7 +26,7 @@ from .mechanics.posterior import Posterior
 from .protocol import Protocol
 from .scheduled.run import CurveAnalysis
 from .scheduled.curve import ScheduleCurve
-from .provenance import dependency_versions, settings_hash
+from .provenance import settings_hash, software
 from .trial import Trial
 from .trial_level import REFERENCE_SKIP_S, TrialLevel
 
@@ -145,7 +144,7 @@ class StiffnessResult:
         return None if self.identification is None else self.identification.posterior
 
     @property
-    def verdict(self) -> str | None:
+    def verdict(self) -> Verdict | None:
         """``ok``, ``caution`` or ``unreliable`` (:class:`~limbstiff.checks.ModelChecks`)."""
         return None if self.checks is None else self.checks.verdict
 
@@ -367,10 +366,3 @@ def result_units(units) -> dict[str, str]:
     levels' (``noise_levels`` in ``identification`` and ``details``)."""
     return {**units, **{f"noise_levels.{k}": v for k, v in NoiseLevels.units(units["torque"],
                                                                               units["stiffness"]).items()}}
-
-
-def software() -> dict:
-    """limbstiff's name and version, the Python version and the dependencies' versions."""
-    import platform
-    return {"name": "limbstiff", "version": __version__, "python": platform.python_version(),
-            "dependencies": dependency_versions()}

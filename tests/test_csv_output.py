@@ -1,7 +1,9 @@
-"""The per-sample CSVs written by numpy in blocks (issue 37): byte for byte what pandas'
-``to_csv(index=False, float_format="%.10g")`` wrote before, on awkward values, and atomically.
+"""The one CSV writer (files.csv_writer): the per-sample CSVs written by numpy in blocks (issue 37),
+byte for byte what pandas' ``to_csv(index=False, float_format="%.10g")`` wrote before, on awkward
+values, and atomically; the trial CSV, the live recording and ``summary.csv`` as pandas, numpy's
+``savetxt`` and the csv module wrote them before (issue 45).
 
-pandas is the reference here and only here.
+pandas, numpy and the csv module are the references here and only here.
 """
 
 from __future__ import annotations
@@ -12,12 +14,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from limbstiff.files import outputs
-from limbstiff.files.outputs import CURVE_CSV, STIFFNESS_CSV, round_significant, write_csv, write_result
+import csv
+import io
+
+from limbstiff.files import csv_writer
+from limbstiff.files.csv_writer import csv_head, csv_rows, write_csv
+from limbstiff.files.outputs import CURVE_CSV, STIFFNESS_CSV, round_significant, write_result
 
 
 def _reference(columns) -> bytes:
-    return pd.DataFrame(columns).to_csv(index=False, float_format="%.10g").encode("utf-8")
+    return pd.DataFrame(columns).to_csv(index=False, float_format="%.10g", lineterminator="\n").encode("utf-8")
 
 
 def _awkward(n: int, seed: int) -> dict:
@@ -53,7 +59,7 @@ def test_write_csv_is_pandas_byte_for_byte(tmp_path, seed):
 
 
 def test_every_value_of_a_column_of_specials_alone_and_across_blocks(tmp_path, monkeypatch):
-    monkeypatch.setattr(outputs, "CSV_BLOCK_ROWS", 7)
+    monkeypatch.setattr(csv_writer, "CSV_BLOCK_ROWS", 7)
     values = _awkward(500, 2)["special"]
     for columns in ({"only": values}, {"a,b": values, 'say "x"': -values, "n": np.arange(500)}):
         write_csv(tmp_path / "x.csv", columns)
@@ -71,28 +77,54 @@ def test_a_lone_nan_is_quoted_and_no_rows_leave_the_header(tmp_path):
 def test_a_frame_is_written_as_its_columns(tmp_path):
     frame = pd.DataFrame(_awkward(300, 3))
     write_csv(tmp_path / "x.csv", frame)
-    assert (tmp_path / "x.csv").read_bytes() == frame.to_csv(index=False, float_format="%.10g").encode()
+    assert (tmp_path / "x.csv").read_bytes() == frame.to_csv(index=False, float_format="%.10g",
+                                                              lineterminator="\n").encode()
 
 
-def test_strings_are_refused(tmp_path):
-    with pytest.raises(TypeError, match="column 'name'"):
-        write_csv(tmp_path / "x.csv", {"t": np.zeros(2), "name": np.array(["a", "b"])})
-    assert not (tmp_path / "x.csv").exists()
+def test_a_table_column_is_written_cell_by_cell_as_the_csv_module_writes_it(tmp_path):
+    cells = [None, "a,b", 'say "x"', "line\nbreak", "é", 0.1, 1e16, 3, True, "", 2.5]
+    rows = [{"name": c, "x": float(i)} for i, c in enumerate(cells)]
+    write_csv(tmp_path / "x.csv", {"name": np.array(cells, dtype=object), "x": np.arange(len(cells), dtype=object) * 1.0})
+    reference = io.StringIO()
+    writer = csv.DictWriter(reference, fieldnames=["name", "x"], lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    assert (tmp_path / "x.csv").read_bytes() == reference.getvalue().encode("utf-8")
+    write_csv(tmp_path / "one.csv", {"only": np.array(["", None, "a"], dtype=object)})
+    assert (tmp_path / "one.csv").read_bytes() == b'only\n""\n""\na\n'
+    with pytest.raises(TypeError, match="column 'm'"):
+        write_csv(tmp_path / "y.csv", {"m": np.zeros((2, 2))})
+    assert not (tmp_path / "y.csv").exists()
+
+
+def test_exact_and_shortest_floats_are_numpys_and_pythons(tmp_path):
+    columns = _awkward(3000, 5)
+    floats = np.column_stack([columns[k] for k in ("special", "bits", "log_uniform", "near_ties", "time")])
+    saved = io.StringIO()
+    np.savetxt(saved, floats, fmt="%.17g", delimiter=",")
+    assert csv_rows(list(floats.T), digits=17, na_rep="nan") == saved.getvalue().encode()
+    frame = pd.DataFrame({k: columns[k] for k in ("special", "bits", "log_uniform", "time")})
+    write_csv(tmp_path / "x.csv", frame, digits=None, metadata={"subject": "s01", "note": "two\nlines"})
+    assert (tmp_path / "x.csv").read_bytes() == (b"# subject: s01\n# note: two lines\n"
+                                                 + frame.to_csv(index=False, lineterminator="\n").encode())
+    assert csv_head(["t", "y"], units=["s", None]) == b"t,y\ns,\n" and csv_head(["t"], units=[None]) == b"t\n"
+    with pytest.raises(ValueError, match="cannot be written"):
+        csv_head(["t"], metadata={"a:b": "c"})
 
 
 def test_a_failure_midway_leaves_the_old_file_whole(tmp_path, monkeypatch):
     path = tmp_path / "x.csv"
     path.write_bytes(b"old\n")
-    real, calls = outputs.csv_rows, []
+    real, calls = csv_writer.csv_rows, []
 
-    def fail_second(arrays):
+    def fail_second(arrays, **kw):
         calls.append(1)
         if len(calls) == 2:
             raise RuntimeError("disk")
-        return real(arrays)
+        return real(arrays, **kw)
 
-    monkeypatch.setattr(outputs, "csv_rows", fail_second)
-    monkeypatch.setattr(outputs, "CSV_BLOCK_ROWS", 10)
+    monkeypatch.setattr(csv_writer, "csv_rows", fail_second)
+    monkeypatch.setattr(csv_writer, "CSV_BLOCK_ROWS", 10)
     with pytest.raises(RuntimeError):
         write_csv(path, {"t": np.arange(100.0)})
     assert path.read_bytes() == b"old\n" and [p.name for p in tmp_path.iterdir()] == ["x.csv"]
@@ -103,7 +135,7 @@ def _old_write(columns) -> bytes:
     frame = pd.DataFrame(columns)
     for column in ("stiffness", "stiffness_lo", "stiffness_hi"):
         frame[column] = round_significant(frame[column].to_numpy(), digits=5)
-    return frame.to_csv(index=False, float_format="%.10g").encode()
+    return frame.to_csv(index=False, float_format="%.10g", lineterminator="\n").encode()
 
 
 def test_write_result_writes_what_pandas_wrote(tmp_path):

@@ -13,7 +13,8 @@ from click.testing import CliRunner
 
 from limbstiff.cli import main
 from limbstiff.diagnosis import selection, where
-from limbstiff.effects.candidates import CANDIDATES
+from limbstiff.effects.registry import CANDIDATES
+from limbstiff.provenance import software
 from limbstiff.effects.kinds import ModelEffect, TorqueEffect, remove
 from limbstiff.diagnosis.run import diagnose
 from limbstiff.files import write_trial
@@ -314,6 +315,7 @@ def test_cli_writes_the_contract(tmp_path):
     assert {"gap", "where", "candidates", "diagnosis"} <= set(data)
     assert {"metric", "train", "heldout"} <= set(data["gap"])
     assert data["diagnosis"][0] == "reflex" and data["seed"] == 3
+    assert data["software"] == software()          # the one provenance block, as summary.json's
     names = {c["effect"] for c in data["candidates"]}
     # every effect name of the interface has its entry; gravity and drift say why they are not tried
     assert {"coulomb_friction", "quadratic_damping", "hysteresis", "backlash", "time_delay", "reflex", "gravity",

@@ -12,7 +12,8 @@ from limbstiff.errors import TrialError
 from limbstiff.files.recording import GrowingTable
 from limbstiff.live import kernel
 from limbstiff.signals import CENTRAL_FIRST, CENTRAL_SECOND
-from limbstiff.live.checks import CAUTION, HINDSIGHT_Z, OK, TRACKING_Z, hindsight, live_checks
+from limbstiff.checks.verdict import CAUTION, OK, Verdict
+from limbstiff.live.checks import HINDSIGHT_Z, TRACKING_Z, VERDICT_NAMES, hindsight, live_checks
 from limbstiff.live.estimator import LiveEstimator, LiveModel
 from limbstiff.live.session import Immediately, LiveSession, identification_due
 from limbstiff.statespace import kernels
@@ -472,14 +473,14 @@ def test_hindsight_flags_the_band_that_lagged_a_ramp():
     session._look_back = look_back
     cut = int(18.5 * trial.fs)          # a look back at 18 s said the band too narrow: the verdict says so
     first, _ = _replay(session, trial.angle[:cut], trial.torque[:cut], trial.fs)
-    assert "hindsight" in session.checks.failed and first[-1, 4] == CAUTION
+    assert "hindsight" in session.checks.failed and first[-1, 4] == CAUTION.code
     rest, _ = _replay(session, trial.angle[cut:], trial.torque[cut:], trial.fs, times=trial.time[cut:] - trial.time[0])
     values = np.vstack([first, rest])
     flagged = [t for t, found in looks if found.too_narrow]
     assert flagged and 12.0 <= min(flagged) and max(flagged) <= 22.0      # while the ramp is in the window
     assert all(found.outside < 0.1 for t, found in looks if t >= 26.0)        # 4 s after it ended: not
     during = (trial.time > 16.0) & (trial.time < 20.0)
-    assert np.all(values[during, 4] == CAUTION)
+    assert np.all(values[during, 4] == CAUTION.code)
     assert "hindsight" not in session.checks.failed
     at_20 = session.events.identifications[-1]                 # as stream.json says it
     assert at_20["at_samples"] == 20000 and at_20["hindsight"]["too_narrow"]
@@ -533,3 +534,10 @@ def test_hindsight_counts_no_more_comparisons_than_samples():
     lo[-50:], hi[-50:] = 10.5, 11.0           # a short miss
     assert hindsight(smoothed, lo, hi, memory_samples=1000, ci_level=0.9) is None
     assert hindsight(smoothed, lo, hi, memory_samples=20, ci_level=0.9).independent == pytest.approx(100 / 40)
+
+
+def test_the_streams_verdict_codes_are_the_verdicts_severities():
+    assert VERDICT_NAMES == {-1: "no estimate yet", 0: "ok", 1: "caution", 2: "unreliable"}
+    assert [v.code for v in Verdict] == [0, 1, 2] and Verdict.worst([]) is OK
+    assert Verdict.worst([CAUTION, Verdict.UNRELIABLE, OK]) is Verdict.UNRELIABLE
+    assert f"{CAUTION}" == "caution" and CAUTION == "caution"

@@ -3,6 +3,7 @@
 import dataclasses
 import hashlib
 import json
+import platform
 import re
 import subprocess
 import sys
@@ -12,7 +13,7 @@ import pytest
 
 import limbstiff
 from limbstiff.mechanics.posterior import Posterior
-from limbstiff.provenance import dependency_versions, settings_hash
+from limbstiff.provenance import dependencies_text, dependency_versions, settings_hash, software
 from limbstiff.simulate import simulate
 
 from .conftest import multisine_trial
@@ -228,6 +229,10 @@ def test_provenance():
     assert versions["numpy"] == np.__version__
     versions["numpy"] = "changed"
     assert dependency_versions()["numpy"] == np.__version__          # cached values are not shared
+    block = software()
+    assert block == {"name": "limbstiff", "version": limbstiff.__version__, "python": platform.python_version(),
+                     "dependencies": dependency_versions()}
+    assert dependencies_text(block).startswith(f"numpy {np.__version__}, scipy ")
     settings = {"b": 1, "a": [1, 2], "c": {"z": None}}
     assert settings_hash(settings) == hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:12]
 

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 from scipy.signal import csd, welch
 
 from limbstiff.cli import main
-from limbstiff.simulate import SIMULATED_EFFECTS, SCENARIOS, simulate, simulate_with_truth
+from limbstiff.simulate import EFFECTS, SCENARIOS, simulate, simulate_with_truth
 from limbstiff.simulate.devices import (coupling_mode, coupling_stiffness, one_body_equivalent,
                                         operating_point_stiffness)
 
@@ -126,7 +126,7 @@ def test_coupled_effects_act_on_the_limb():
 
 
 @pytest.mark.parametrize("name", NEW)
-@pytest.mark.parametrize("effect", list(SIMULATED_EFFECTS))
+@pytest.mark.parametrize("effect", list(EFFECTS))
 def test_every_effect_applies(name, effect):
     base = simulate(name, seed=1, params={"duration": 1.0})
     trial = simulate(name, seed=1, params={"duration": 1.0}, effect=effect)

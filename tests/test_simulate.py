@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from limbstiff.simulate import (SIMULATED_EFFECTS, SCENARIOS, describe_scenarios, effect_defaults,
+from limbstiff.simulate import (EFFECTS, SCENARIOS, describe_scenarios, effect_defaults,
                                 simulate, simulate_with_truth, trial_scales)
 from limbstiff.unmodelled import dahl, dahl_along, delay_signal, play
-from limbstiff.simulate.effects import REFERENCE_SCALES
+from limbstiff.effects.simulated import REFERENCE_SCALES
 from limbstiff.simulate.excitation import (chirp, draw_binary_steps, draw_random_steps, gate,
                                            multisine, smoothed_steps)
 from limbstiff.simulate.paper import EXP_SPRINGS
@@ -287,11 +287,26 @@ def test_effect_metadata_and_name():
     assert trial.name == "elbow-reflex"
     assert trial.metadata["effect"] == "reflex" and trial.metadata["effect_kind"] == "dynamics"
     assert trial.metadata["effect.gain"] == "0.5" and trial.metadata["effect.delay"] == "0.04"
-    assert set(SIMULATED_EFFECTS) >= {"coulomb_friction", "quadratic_damping", "hysteresis", "backlash",
+    assert set(EFFECTS) >= {"coulomb_friction", "quadratic_damping", "hysteresis", "backlash",
                             "time_delay", "reflex", "gravity", "sensor_drift",
                             "inertia_error", "damping_error"}
-    for effect in SIMULATED_EFFECTS.values():
+    for effect in EFFECTS.values():
         assert effect.kind in ("dynamics", "measurement") and effect.description
+
+
+def test_one_registry_for_simulator_and_model():
+    from dataclasses import replace
+    from limbstiff.effects.registry import CANDIDATES, IN_MODEL
+    from limbstiff.protocol import MODEL_EFFECTS
+    assert CANDIDATES == {n: e.model for n, e in EFFECTS.items() if e.model is not None}
+    assert set(EFFECTS) - set(CANDIDATES) == {"gravity", "sensor_drift"}
+    assert all((e.model is None) == bool(e.held_by_nominal) for e in EFFECTS.values())
+    assert IN_MODEL == MODEL_EFFECTS
+    reflex = EFFECTS["reflex"]
+    with pytest.raises(ValueError, match="holds the model of"):
+        replace(reflex, model=CANDIDATES["hysteresis"])
+    with pytest.raises(ValueError, match="one of them"):
+        replace(reflex, model=None)
 
 
 def test_elbow_reference_defaults():
@@ -299,7 +314,7 @@ def test_elbow_reference_defaults():
     assert set(scales) == set(REFERENCE_SCALES)
     for key, value in scales.items():
         assert REFERENCE_SCALES[key] == pytest.approx(value, rel=0.001)
-    for effect in SIMULATED_EFFECTS.values():
+    for effect in EFFECTS.values():
         for key, value in effect.defaults_for(scales).items():
             assert effect.defaults[key] == pytest.approx(value, rel=0.01)
     sized = effect_defaults("reflex", "ankle", params={"duration": 5.0})
@@ -416,7 +431,7 @@ def test_inertia_and_damping_errors():
     assert float(hogan.metadata["true_quadratic_damping"]) == pytest.approx(1.3)
 
 
-@pytest.mark.parametrize("effect", list(SIMULATED_EFFECTS))
+@pytest.mark.parametrize("effect", list(EFFECTS))
 def test_every_effect_changes_the_recording(effect):
     base = simulate("paper-vsa-hogan", params={"duration": 2.0})
     trial = simulate("paper-vsa-hogan", params={"duration": 2.0}, effect=effect)

@@ -305,9 +305,9 @@ def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, e
 def _identify_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     """Read one trial, identify m and b, write posterior.json and draws.csv (worker process)."""
     from ..analysis import identification_summary, identify_trial
-    from ..files.atomic import atomic_write_text, sha256_file
-    from ..files.outputs import write_json
-    from ..files.outputs import jsonable
+    from ..files.atomic import sha256_file
+    from ..files.csv_writer import write_csv
+    from ..files.outputs import jsonable, write_json
 
     opts, out = job.options, job.at(job.out)
     if not opts.overwrite:
@@ -320,7 +320,7 @@ def _identify_and_write(job: BatchJob[JobOptions]) -> TrialRow:
     ident = identify_trial(trial, opts.protocol, seed=opts.seed)
     out.mkdir(parents=True, exist_ok=True)
     if ident.posterior is not None:
-        atomic_write_text(out / "draws.csv", ident.posterior.to_frame().to_csv(index=False, float_format="%.10g"))
+        write_csv(out / "draws.csv", ident.posterior.to_frame())
     summary = identification_summary(trial, ident, ci_level=opts.protocol.ci_level, seed=opts.seed)
     summary = jsonable(dict(summary, output=str(job.out), run_sha256=opts.run_sha256))
     write_json(out / "posterior.json", summary)

@@ -2,20 +2,20 @@
 
 A finished trial's row is a :class:`TrialRow`, read from the ``summary.json`` (or
 ``posterior.json``) it wrote or kept; the table's cells are made from it only when
-``summary.csv`` is written. Standard library only.
+``summary.csv`` is written (by the one CSV writer, cell by cell).
 """
 
 from __future__ import annotations
 
-import csv
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from io import StringIO
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
-from ..files.atomic import atomic_write_text
+import numpy as np
+
+from ..files.csv_writer import write_csv
 from ..files.outputs import SUMMARY_JSON
 from ..frozen import FrozenDict
 from .runner import TrialOutcome
@@ -165,11 +165,7 @@ def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome[TrialRow]]) ->
     """
     rows = [summary_row(o) for o in outcomes]
     meta = sorted({k for r in rows for k in r if k.startswith(METADATA_PREFIX)})
-    buf = StringIO()
-    writer = csv.DictWriter(buf, fieldnames=[*SUMMARY_COLUMNS, *meta], lineterminator="\n", restval="")
-    writer.writeheader()
-    writer.writerows(rows)
-    atomic_write_text(path, buf.getvalue())
+    write_csv(path, {name: np.array([r.get(name) for r in rows], dtype=object) for name in [*SUMMARY_COLUMNS, *meta]})
 
 
 def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: Iterable[str],

@@ -11,6 +11,6 @@
 from __future__ import annotations
 
 from .analysis import check_analysis
-from .verdict import CAUTION, OK, UNRELIABLE, Check, ModelChecks
+from .verdict import CAUTION, OK, UNRELIABLE, Check, ModelChecks, Verdict
 
-__all__ = ["check_analysis", "Check", "ModelChecks", "OK", "CAUTION", "UNRELIABLE"]
+__all__ = ["check_analysis", "Check", "ModelChecks", "Verdict", "OK", "CAUTION", "UNRELIABLE"]

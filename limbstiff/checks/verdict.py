@@ -19,12 +19,39 @@ detection rates on other seeds.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import StrEnum
+from typing import Iterable
 
 import numpy as np
 
-OK, CAUTION, UNRELIABLE = "ok", "caution", "unreliable"
-SEVERITY = {OK: 0, CAUTION: 1, UNRELIABLE: 2}
 
+class Verdict(StrEnum):
+    """What the checks say of a stiffness, offline and live: a string (``"ok"``…, as written to
+    JSON and CSV) with its severity :attr:`code`, the number a live stream publishes."""
+
+    OK = "ok"
+    CAUTION = "caution"
+    UNRELIABLE = "unreliable"
+
+    @property
+    def code(self) -> int:
+        """0 (ok), 1 (caution) or 2 (unreliable): the severity, the larger the worse."""
+        return _CODES[self]
+
+    @classmethod
+    def worst(cls, verdicts: Iterable["Verdict"]) -> "Verdict":
+        """The most severe of ``verdicts``; ``ok`` when there are none."""
+        return max(verdicts, key=lambda v: v.code, default=cls.OK)
+
+
+_CODES = {Verdict.OK: 0, Verdict.CAUTION: 1, Verdict.UNRELIABLE: 2}
+OK, CAUTION, UNRELIABLE = Verdict.OK, Verdict.CAUTION, Verdict.UNRELIABLE
+#: The code a live stream publishes while it has no estimate (warming up), beside :attr:`Verdict.code`.
+NO_ESTIMATE = -1
+
+#: Share of the samples informed by motion below which the analysis warns that the motion informs too
+#: little of the trial, and the live verdict is ``caution``: half the trial without an estimate of its own.
+MOTION_MIN = 0.5
 #: Held-out share of the torque explained below which the verdict is ``caution``, and
 #: ``unreliable``. Clean simulated trials: 0.99–1.00; simulated effects that bias the stiffness
 #: 5–35 %: 0.84–0.96; real trials the model fits: 0.68 (z_df), 0.74 (z_df3), 0.84 (z_df2); the
@@ -124,8 +151,9 @@ class Check:
     passed : bool
     message : str
         What the value means, in plain words, and what to do when it failed.
-    severity : {"caution", "unreliable"}
-        The verdict the check gives when it fails.
+    severity : Verdict or str
+        The verdict the check gives when it fails (``caution`` or ``unreliable``; a string is taken as
+        its :class:`Verdict`).
     """
 
     name: str
@@ -133,7 +161,10 @@ class Check:
     threshold: float | None
     passed: bool
     message: str
-    severity: str = CAUTION
+    severity: Verdict = CAUTION
+
+    def __post_init__(self):
+        object.__setattr__(self, "severity", Verdict(self.severity))
 
     def to_dict(self) -> dict:
         return {"name": self.name, "value": self.value, "threshold": self.threshold, "passed": self.passed,
@@ -156,15 +187,14 @@ class ModelChecks:
         return tuple(c for c in self.checks if not c.passed)
 
     @property
-    def verdict(self) -> str:
+    def verdict(self) -> Verdict:
         """``ok``, ``caution`` or ``unreliable``: the worst severity among the failed checks."""
-        worst = max((SEVERITY[c.severity] for c in self.failed), default=0)
-        return {v: k for k, v in SEVERITY.items()}[worst]
+        return Verdict.worst(c.severity for c in self.failed)
 
     @property
     def reasons(self) -> tuple[str, ...]:
         """The messages of the failed checks, the most severe first."""
-        return tuple(c.message for c in sorted(self.failed, key=lambda c: -SEVERITY[c.severity]))
+        return tuple(c.message for c in sorted(self.failed, key=lambda c: -c.severity.code))
 
     def __getitem__(self, name: str) -> Check:
         for c in self.checks:
@@ -176,13 +206,13 @@ class ModelChecks:
         return {"verdict": self.verdict, "checks": [c.to_dict() for c in self.checks]}
 
 
-def check_at_least(name: str, value: float | None, threshold: float, *, severity: str, good: str, bad: str) -> Check:
+def check_at_least(name: str, value: float | None, threshold: float, *, severity: Verdict, good: str, bad: str) -> Check:
     """A check that passes when ``value`` ≥ ``threshold`` (or is None)."""
     passed = value is None or value >= threshold
     return Check(name, value, threshold, passed, good if passed else bad, severity)
 
 
-def check_at_most(name: str, value: float | None, threshold: float, *, severity: str, good: str, bad: str) -> Check:
+def check_at_most(name: str, value: float | None, threshold: float, *, severity: Verdict, good: str, bad: str) -> Check:
     """A check that passes when ``value`` ≤ ``threshold`` (or is None)."""
     passed = value is None or value <= threshold
     return Check(name, value, threshold, passed, good if passed else bad, severity)

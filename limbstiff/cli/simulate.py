@@ -53,10 +53,10 @@ def command(scenario: str | None, out: str | None, seed: int, effect: str | None
     each sample stamped with this computer's LSL clock; Ctrl-C stops it."""
     from ..files import write_trial
     from ..files.outputs import writable_file
-    from ..simulate import SIMULATED_EFFECTS, SCENARIOS, simulate
+    from ..simulate import EFFECTS, SCENARIOS, simulate
 
     if list_:
-        for title, table in (("scenarios", SCENARIOS), ("effects", SIMULATED_EFFECTS)):
+        for title, table in (("scenarios", SCENARIOS), ("effects", EFFECTS)):
             click.echo(f"{title}:")
             for name, item in table.items():
                 click.echo(f"  {name}: {item.description.splitlines()[0]}")

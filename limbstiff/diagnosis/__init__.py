@@ -9,7 +9,7 @@ Modules (one idea each): ``channels`` (a trial's filtered signals and its analys
 (the Kalman model at its steps: innovations, marginal likelihood, noise fit, units and blocks;
 the gap metric), ``where`` (a residual in time, frequency and regime; whiteness and
 cross-correlation with bounds), ``kinds`` (how an effect enters the model), ``candidates`` (the
-candidate library, :data:`~limbstiff.effects.candidates.CANDIDATES`), ``residual`` (where a model's prediction errors lie, per trial), ``crossval``
+candidate library, :data:`~limbstiff.effects.registry.CANDIDATES`), ``residual`` (where a model's prediction errors lie, per trial), ``crossval``
 (a model's innovations as a regression; fitting on training folds, scoring held out),
 ``selection`` (greedy selection with a sign-flip test, intervals, ambiguities), ``per_trial``
 (each trial's own selection beside the pooled one), ``bias`` (the

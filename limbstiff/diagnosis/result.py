@@ -13,8 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Mapping
 
-from .. import __version__
 from ..files.outputs import jsonable
+from ..provenance import software
 from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StiffnessBias, TrialInfo,
                     TrialSelection, TrialStiffness)
 
@@ -182,7 +182,7 @@ class Diagnosis:
             "settings": self.settings,
             "units": UNITS,
             "seed": self.seed,
-            "software": {"name": "limbstiff", "version": __version__},
+            "software": software(),
         })
 
     def plot(self, path) -> None:

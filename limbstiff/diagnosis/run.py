@@ -25,7 +25,7 @@ from ..trial import Trial
 from . import crossval, nominal, residual, selection
 from .bias import median_stiffness, stiffness_change
 from ..effects.channels import channels_from
-from ..effects.candidates import CANDIDATES
+from ..effects.registry import CANDIDATES, EFFECTS
 from ..effects.kinds import MechanicsOffset
 from .per_trial import chosen_fits, disagreements, trial_selections
 from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StepScore, StiffnessBias,
@@ -215,10 +215,7 @@ def _stiffness_with_effects(run: _Run) -> tuple[TrialStiffness, ...]:
 
 #: The effect names of the interface (docs/interface.md section 5) and why one is not tried as a term.
 NOT_TRIED = {
-    "gravity": "a torque that depends on the angle alone is a generalized stiffness, which the model holds (its "
-               "static nonlinear spring and its walking stiffness); it cannot be told from stiffness in these data",
-    "sensor_drift": "a slow drift of the torque offset is a walk of the elastic torque, which the model holds (its "
-                    "torque walk Q_s)",
+    **{name: e.held_by_nominal for name, e in EFFECTS.items() if e.model is None},
     "inertia_error": "m and b were identified and are fitted together with every effect",
     "damping_error": "m and b were identified and are fitted together with every effect",
 }

@@ -1,7 +1,8 @@
-"""The library of candidate unmodelled effects: one physically named, parametric term each.
+"""How the model holds the candidate effects: their shapes, and the grids they are profiled over.
 
-Each entry of :data:`CANDIDATES` is one object of a kind from :mod:`.kinds` that adds to the
-nominal model f = m·ÿ + b·ẏ + s(y, t) either
+Each effect of the registry (:data:`limbstiff.effects.registry.EFFECTS`) that the model can hold
+has a model part of a kind from :mod:`.kinds`, which adds to the nominal model
+f = m·ÿ + b·ẏ + s(y, t) either
 
 * a **torque** e = Σ aᵢ·φᵢ(y, ẏ, ÿ; shape) on the joint (friction, reflex…) — linear in
   its amplitudes aᵢ once its shape parameters are fixed, so the amplitudes are fitted by least
@@ -10,14 +11,10 @@ nominal model f = m·ÿ + b·ẏ + s(y, t) either
   gear's play) — profiled over a grid of its one parameter; or
 * an **error of the nominal inertia or damping**.
 
-A torque φ is computed from the filtered signals and passed through the same low-pass as the
-recorded torque. Grids come from the trial's own scales (:class:`~.kinds.Scales`), with the
-reason stated beside each. A new effect is one new entry of :data:`CANDIDATES`. The physics shared
-with the simulator (play, Dahl hysteresis, channel delay, Coulomb friction) is in
-:mod:`limbstiff.unmodelled`. Not in the library: gravity and sensor drift. A torque that depends on
-the angle alone (gravity on an unbalanced segment) is a generalized stiffness, which the model
-holds (its static nonlinear spring and its time-varying stiffness), and a slow drift of the
-torque offset is a walk of the elastic torque (Q_s). Pure numpy/scipy: no I/O.
+The shapes φ and the grids are here. A torque φ is computed from the filtered signals and passed
+through the same low-pass as the recorded torque. Grids come from the trial's own scales
+(:class:`~.kinds.Scales`), with the reason stated beside each in the registry, which also says why
+gravity and sensor drift need no model part (``held_by_nominal``). Pure numpy/scipy: no I/O.
 
 Sign convention (as the simulator): the effect torque e is on the left-hand side,
 f = m·ÿ + b·ẏ + s + e, so a positive friction torque opposes motion.
@@ -33,7 +30,6 @@ from scipy import signal as sps
 
 from ..unmodelled import coulomb, dahl, delay_signal, play
 from .channels import Channels
-from .kinds import ChannelCorrection, ModelEffect, MechanicsOffset, TorqueEffect
 
 
 # --- shapes -------------------------------------------------------------------------------
@@ -122,45 +118,48 @@ def _activation_filter(corner_hz: float, fs: float):
     tau = 1.0 / (2 * np.pi * corner_hz)
     return sps.bilinear([1.0], [tau * tau, 2 * tau, 1.0], fs=fs)
 
-def _geom(lo: float, hi: float, k: int) -> list[float]:
+
+def geom(lo: float, hi: float, k: int) -> list[float]:
+    """``k`` values from ``lo`` to ``hi`` spaced evenly on a log scale (``[hi]`` when the range is
+    narrower than 1 %; ``lo`` at least 10⁻¹²)."""
     lo = max(lo, 1e-12)
     return [float(v) for v in (np.geomspace(lo, hi, k) if hi > lo * 1.01 else [hi])]
 
 
-# --- the library --------------------------------------------------------------------------
+# --- torques, corrections and grids ---------------------------------------------------------
 
-def _hysteresis_low(s) -> float:
+def hysteresis_low(s) -> float:
     """The narrowest Dahl loop resolved, rad: twice the angle resolution, or 2 % of the RMS angle."""
     return max(2 * s.angle_resolution, 0.02 * s.angle)
 
 
-def _friction_grid(s) -> list[dict]:
+def friction_grid(s) -> list[dict]:
     """Coulomb friction's shapes: smoothing velocities, then presliding angles up to the
     narrowest hysteresis loop (where the two effects are one torque)."""
-    low = _hysteresis_low(s)
-    return ([{"smoothing_velocity": v} for v in _geom(max(s.velocity_noise, 0.003 * s.velocity), 0.3 * s.velocity, 6)]
-            + [{"presliding_angle": v} for v in _geom(max(2 * s.angle_resolution, 0.1 * low), low, 3)])
+    low = hysteresis_low(s)
+    return ([{"smoothing_velocity": v} for v in geom(max(s.velocity_noise, 0.003 * s.velocity), 0.3 * s.velocity, 6)]
+            + [{"presliding_angle": v} for v in geom(max(2 * s.angle_resolution, 0.1 * low), low, 3)])
 
 
-def _friction(ch, sh):
+def friction_torque(ch, sh):
     """tanh(ẏ/v_ε), or the Dahl friction state over the presliding angle (unit amplitude), shape (n,)."""
     if "presliding_angle" in sh:
         return dahl(ch.angle, sh["presliding_angle"])
     return coulomb(ch.velocity, sh["smoothing_velocity"])
 
 
-def _quadratic(ch, sh):
+def quadratic_torque(ch, sh):
     """ẏ|ẏ| of the filtered velocity, (rad/s)², shape (n,)."""
     v = ch.velocity
     return v * np.abs(v)
 
 
-def _backlash(ch, x, sh):
+def backlash_angle(ch, x, sh):
     """The joint's angle behind a play of ``sh['width']``, from the recorded angle ``x`` (n,), rad."""
     return x + 0.5 * sh["width"] * backlash_direction(ch, sh["width"])
 
 
-def _reflex(ch, sh):
+def reflex_torque(ch, sh):
     """direction·[direction·ẏ(t − δ)]₊ through the activation dynamics, rad/s, shape (n,)."""
     s = sh["direction"]
     return _activation(s * np.maximum(s * _delayed_velocity(ch, sh["delay"]), 0.0), ch.fs, sh["activation_hz"])
@@ -176,76 +175,10 @@ def _delayed_velocity(ch, delay: float) -> np.ndarray:
     return kept[1]
 
 
+#: Loop delays of the reflex, s: 20–80 ms in 5 ms steps.
 REFLEX_DELAYS_S = tuple(np.round(np.arange(0.020, 0.0801, 0.005), 3))
 #: Activation corners of the reflex torque, Hz: None, then 1/(2π·T_c) for contraction times T_c of
 #: 30, 60, 90 and 120 ms.
 ACTIVATION_HZ = (None,) + tuple(float(np.round(1.0 / (2 * np.pi * tc), 3)) for tc in (0.03, 0.06, 0.09, 0.12))
+#: Lags of the torque channel, s: ±50 ms in 1 ms steps.
 TIME_DELAYS_S = tuple(np.round(np.arange(-0.050, 0.0501, 0.001), 3))
-
-CANDIDATES: dict[str, ModelEffect] = {e.name: e for e in (
-    TorqueEffect(
-        name="coulomb_friction", description="Coulomb friction F_c opposing motion (bearings, seals, cable "
-        "guides): F_c·tanh(ẏ/v_ε), or with presliding (LuGre's bristles, Dahl's friction model) F_c·z, "
-        "dz/dy = (sgn(ẏ) − z)/y_p, the friction building up over the presliding angle y_p after each "
-        "reversal.", amplitudes=("friction_torque",),
-        units={"friction_torque": "N·m", "smoothing_velocity": "rad/s", "presliding_angle": "rad"},
-        grid=_friction_grid,
-        grid_reason="v_ε from the velocity noise level (below it the sign of ẏ is unknown) to 0.3×RMS "
-        "velocity (above it tanh is nearly linear over the motion: a viscous term); presliding angles "
-        "from a tenth of the narrowest hysteresis loop to it (a wider loop is hysteresis)",
-        torque=_friction),
-    TorqueEffect(
-        name="quadratic_damping", description="Quadratic (turbulent, viscoelastic) damping c·ẏ|ẏ|.",
-        amplitudes=("coefficient",), units={"coefficient": "N·m·s²/rad²"}, grid=lambda s: [{}], grid_reason="no shape parameter",
-        torque=_quadratic),
-    TorqueEffect(
-        name="hysteresis", description="Dahl hysteresis z with dz/dy = (sgn(ẏ)·F − z)/y_c: a friction "
-        "torque that builds up over the angle y_c after each reversal (soft tissue, short-range "
-        "stiffness).", amplitudes=("amplitude",), units={"amplitude": "N·m", "characteristic_angle": "rad"},
-        grid=lambda s: [{"characteristic_angle": v} for v in _geom(_hysteresis_low(s), s.angle, 6)],
-        grid_reason="y_c from twice the angle resolution (a narrower loop is Coulomb friction) to the RMS "
-        "angle (a loop that never saturates acts as a spring)",
-        torque=lambda ch, sh: dahl(ch.angle, sh["characteristic_angle"]), lower_limit="coulomb_friction"),
-    ChannelCorrection(
-        name="backlash", description="Play of total width w between the joint and the angle sensor (a "
-        "gear, a loose cuff): the recorded angle stays put while the joint crosses the dead band.",
-        grid=lambda s: [{"width": v} for v in _geom(max(2 * s.angle_resolution, 0.01 * s.angle),
-                                                    0.5 * s.angle, 20)],
-        grid_reason="w from twice the angle resolution or 1 % of the RMS angle (a narrower play is "
-        "invisible) to half the RMS angle (a wider one would hold the recorded angle still most of the "
-        "time), 20 values: the fit is sharply peaked in w", channel="angle", correct=_backlash,
-        units={"width": "rad"}),
-    ChannelCorrection(
-        name="time_delay", description="The torque channel lags the angle channel by d (unmatched "
-        "anti-aliasing filters, amplifiers, a bus); d < 0: the angle lags.",
-        grid=lambda s: [{"delay": float(d)} for d in TIME_DELAYS_S],
-        grid_reason="±50 ms in 1 ms steps: longer lags are a broken set-up, and beyond 20 ms a lag "
-        "overlaps the reflex loop", channel="torque", units={"delay": "s"},
-        # f_recorded(t) = f(t − d): the torque the joint saw at t is the one recorded at t + d
-        correct=lambda ch, x, sh: delay_signal(ch.time, x, -sh["delay"])),
-    TorqueEffect(
-        name="reflex", description="Stretch reflex: delayed, half-wave rectified velocity feedback "
-        "direction·g·[direction·ẏ(t − δ)]₊ resisting stretch in one direction, optionally through "
-        "muscle activation dynamics (critically damped second-order low-pass).", amplitudes=("gain",),
-        units={"gain": "N·m·s/rad", "delay": "s", "direction": "1 (+1: stretch towards positive angles)",
-               "activation_hz": "Hz (none: no activation dynamics)"},
-        grid=lambda s: [{"delay": float(d), "direction": sgn, "activation_hz": fa}
-                        for d in REFLEX_DELAYS_S for sgn in (1.0, -1.0) for fa in ACTIVATION_HZ],
-        grid_reason="loop delays 20–80 ms (spinal stretch reflexes of human limbs) in 5 ms steps; both "
-        "stretch directions; activation dynamics none (torque follows the rectified velocity at once) "
-        "or a critically damped low-pass whose impulse response peaks at the twitch contraction time "
-        "of human muscles, 30, 60, 90 or 120 ms (fast muscles to soleus): corners 1/(2π·T_c)",
-        torque=_reflex),
-    MechanicsOffset(
-        name="inertia_error", description="The true inertia differs from the nominal one by Δm (a "
-        "handle, brace or footplate not accounted for).", amplitudes=("delta_inertia",),
-        units={"delta_inertia": "kg·m²", "fraction": "1 (of the nominal inertia)"},
-        grid=lambda s: [{}], grid_reason="no shape parameter", parameter="inertia",
-        signal="acceleration"),
-    MechanicsOffset(
-        name="damping_error", description="The true damping differs from the nominal one by Δb.",
-        amplitudes=("delta_damping",),
-        units={"delta_damping": "N·m·s/rad", "fraction": "1 (of the nominal damping)"}, grid=lambda s: [{}], grid_reason="no shape parameter",
-        parameter="damping", signal="velocity"),
-)}
-

@@ -1,7 +1,7 @@
 """Named torque effects in the analysis's model: shape profiled, amplitude identified with m and b.
 
 ``limbstiff analyze --effect reflex`` (or the protocol's ``effects``) puts an effect of the library
-(:data:`~limbstiff.effects.candidates.CANDIDATES`) in the model the stiffness is estimated with:
+(:data:`~limbstiff.effects.registry.CANDIDATES`) in the model the stiffness is estimated with:
 f = m·ÿ + b·ẏ + a·φ(shape) + s. Its shape (a reflex's delay, direction and activation) is
 chosen on the effect's own grid by the Kalman model's marginal likelihood at the noise levels of
 the model without it (:func:`profile_effect`); its amplitude a is then a linear coefficient
@@ -32,7 +32,7 @@ from ..mechanics.likelihood import MechanicsProblem, kalman_mechanics, robust_co
 from ..protocol import Protocol
 from ..statespace.noise import NoiseLevels
 from ..trial import Trial
-from .candidates import CANDIDATES
+from .registry import CANDIDATES, IN_MODEL
 from .channels import Channels
 from .kinds import Scales, TorqueEffect
 
@@ -49,8 +49,6 @@ SCREEN_SHARE = 0.2
 #: than the reflex's delays (≤ 80 ms), its activation's time constants (≤ 0.12 s) and the low-pass
 #: filters' transients at the joins.
 SCREEN_MARGIN_S = 2.0
-#: The effects an analysis can hold in its model: the library's torque effects.
-IN_MODEL = tuple(name for name, e in CANDIDATES.items() if isinstance(e, TorqueEffect))
 
 
 @dataclass(frozen=True)

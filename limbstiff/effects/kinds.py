@@ -1,7 +1,7 @@
 """How a candidate effect enters the nominal model: the kinds of effect, and their removal.
 
 The nominal model is f = m·ÿ + b·ẏ + s(y, t). A candidate effect (the library is
-:data:`.candidates.CANDIDATES`) is one object of a subclass of :class:`ModelEffect`, which says how it
+:data:`.registry.CANDIDATES`) is one object of a subclass of :class:`ModelEffect`, which says how it
 enters:
 
 * :class:`TorqueEffect` — a torque e = a·φ(y, ẏ, ÿ; shape) on the joint, linear in its

@@ -14,6 +14,7 @@ and the atomic-write helpers every output goes through.
 | ``columns.py`` | which column or variable fills which quantity, in which unit |
 | ``validate.py`` | the common checks: time, gaps, length, motion, resampling, SHA-256 |
 | ``units.py`` | the unit table and standard ``<quantity>_<unit>`` names |
+| ``csv_writer.py`` | :func:`~.csv_writer.write_csv`: the one CSV writer every CSV goes through |
 | ``trial_csv.py`` | :func:`write_trial` (the standard CSV) |
 | ``recording.py`` | a CSV written as rows arrive (a live session's recording and estimate) |
 | ``lsl.py`` | Lab Streaming Layer streams in: finding, reading clock-corrected (``[stream]`` extra) |

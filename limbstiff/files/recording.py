@@ -6,12 +6,12 @@ A live session must never lose its recording: :class:`GrowingTable` appends each
 ``<name>.partial`` in the destination folder and flushes it to disk at least every
 :data:`FLUSH_EVERY_S` seconds, so a crash leaves at most that much unwritten; :meth:`GrowingTable.close`
 renames it to its name (a partial file left behind by a killed process is a readable CSV too).
-Values are written with 17 significant digits, which read back as the same float64 to the bit.
+Values are written with 17 significant digits, which read back as the same float64 to the bit, by
+the one CSV writer (:mod:`.csv_writer`).
 """
 
 from __future__ import annotations
 
-import io
 import os
 import time
 from pathlib import Path
@@ -19,10 +19,12 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from .csv_writer import csv_head, csv_rows
+
 #: Longest time rows wait in memory before they are flushed to disk, s.
 FLUSH_EVERY_S = 1.0
-#: Float format: 17 significant digits read back as the same float64.
-EXACT = "%.17g"
+#: Significant digits of the values: 17 read back as the same float64.
+EXACT_DIGITS = 17
 
 
 class GrowingTable:
@@ -46,12 +48,8 @@ class GrowingTable:
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.columns = len(headers)
         self.rows = 0
-        self._handle = open(self.partial, "w", encoding="utf-8", newline="\n")
-        lines = [f"# {key}: {value}" for key, value in (metadata or {}).items()]
-        lines.append(",".join(headers))
-        if units is not None and any(units):
-            lines.append(",".join(u or "" for u in units))
-        self._handle.write("\n".join(lines) + "\n")
+        self._handle = open(self.partial, "wb")
+        self._handle.write(csv_head(headers, metadata=metadata, units=units))
         self._flushed = time.monotonic()
         self._pending: list[np.ndarray] = []
 
@@ -72,9 +70,8 @@ class GrowingTable:
     def flush(self) -> None:
         """Write what is buffered to disk."""
         if self._pending:
-            buffer = io.StringIO()
-            np.savetxt(buffer, np.vstack(self._pending), fmt=EXACT, delimiter=",")
-            self._handle.write(buffer.getvalue())
+            rows = np.vstack(self._pending)
+            self._handle.write(csv_rows(list(rows.T), digits=EXACT_DIGITS, na_rep="nan"))
             self._pending = []
         self._handle.flush()
         os.fsync(self._handle.fileno())

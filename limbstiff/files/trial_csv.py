@@ -9,11 +9,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..trial import Trial
-from .atomic import atomic_write_text
 from ..units import FIELDS, UNITS, canonical_unit
+from .csv_writer import write_csv
 
 _HEADERS = {
     "rotational": ("time_s", "angle_rad", "torque_Nm", "elastic_torque_Nm", "stiffness_true_Nm_per_rad"),
@@ -30,7 +29,7 @@ def write_trial(trial: Trial, path) -> Path:
     present; then ``schedule_<unit>`` when the trial has a scheduling variable (its SI unit in
     the table's ASCII spelling: ``schedule_rad``, ``schedule_Nm``; a free unit as it is:
     ``schedule_%MVC``) and ``marker`` when it has a cycle marker. Floats are written at full
-    precision, so :func:`read_trial` gives the same arrays (the marker is read back with a
+    precision (the shortest text that reads back to the bit), so :func:`read_trial` gives the same arrays (the marker is read back with a
     protocol whose ``[cycles]`` says ``marker = "marker"``; without one it is an ignored column).
 
     Parameters
@@ -44,13 +43,6 @@ def write_trial(trial: Trial, path) -> Path:
     Path
         ``path``.
     """
-    lines = []
-    for key, value in trial.metadata.items():
-        key = str(key).strip()
-        if not key or ":" in key or "\n" in key:
-            raise ValueError(f"metadata key {key!r} cannot be written as '# key: value'")
-        value = " ".join(str(value).splitlines())
-        lines.append(f"# {key}: {value}\n")
     data = {}
     for field, header in zip(FIELDS, _HEADERS[trial.kind]):
         array = getattr(trial, field)
@@ -60,8 +52,7 @@ def write_trial(trial: Trial, path) -> Path:
         data[schedule_header(trial.schedule_unit)] = np.asarray(trial.schedule, dtype=float)
     if trial.marker is not None:
         data["marker"] = np.asarray(trial.marker, dtype=float)
-    body = pd.DataFrame(data).to_csv(index=False, lineterminator="\n")
-    atomic_write_text(path, "".join(lines) + body)
+    write_csv(path, data, digits=None, metadata=trial.metadata)
     return Path(path)
 
 

@@ -2,8 +2,8 @@
 
 Over the last :data:`WINDOW_PERIODS` motion periods of model steps (at least :data:`WINDOW_MIN_S`):
 
-* motion — the share of samples the data inform (the band not 3× its typical width): below 50 %
-  the verdict is ``caution`` (the offline analysis warns at the same share);
+* motion — the share of samples the data inform (the band not 3× its typical width): below
+  :data:`~limbstiff.checks.verdict.MOTION_MIN` the verdict is ``caution`` (the offline analysis warns there);
 * torque explained — 1 − Σe²/Σ(z − z̄)², e the one-step prediction errors of z = f − m·ÿ − b·ẏ: the
   offline held-out thresholds (:data:`~limbstiff.checks.verdict.HELDOUT_CAUTION`,
   :data:`~limbstiff.checks.verdict.HELDOUT_UNRELIABLE`). A one-step prediction is easier than the
@@ -51,18 +51,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..checks.model import WHITENESS_LAGS, largest_autocorrelation
-from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, HELDOUT_CAUTION, HELDOUT_UNRELIABLE,
-                              NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, WHITENESS_MAX)
+from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, CAUTION, HELDOUT_CAUTION, HELDOUT_UNRELIABLE, MOTION_MIN,
+                              NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, NO_ESTIMATE, UNRELIABLE, WHITENESS_MAX,
+                              Verdict)
 
 #: Standard errors |β| must exceed for the tracking check (a two-sided test at 0.27 %; not fitted).
 TRACKING_Z = 3.0
 #: The window the checks look back over, in motion periods, and at least this many seconds.
 WINDOW_PERIODS, WINDOW_MIN_S = 10.0, 5.0
-#: Share of informed samples below which the verdict is ``caution`` (as the offline warning).
-MOTION_MIN = 0.5
-#: Verdict codes of the ``verdict`` channel: no estimate yet (warming up), ok, caution, unreliable.
-NO_ESTIMATE, OK, CAUTION, UNRELIABLE = -1, 0, 1, 2
-VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", OK: "ok", CAUTION: "caution", UNRELIABLE: "unreliable"}
+#: Codes of the ``verdict`` channel and what they mean: no estimate yet (warming up), then each
+#: :class:`~limbstiff.checks.verdict.Verdict`'s code.
+VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", **{v.code: v.value for v in Verdict}}
 #: Lags of the whiteness statistic, as offline; a window is judged once it holds more than twice as many steps.
 LAGS = WHITENESS_LAGS
 #: Binomial standard errors the hindsight share may exceed 1 − ci_level by (one-sided 2.3 %; not fitted).
@@ -100,8 +99,8 @@ class LiveChecks:
     hindsight : Hindsight or None
         The last look back (an identification's or a noise refit's) that could be judged; None
         before one could.
-    verdict : int
-        :data:`OK`, :data:`CAUTION` or :data:`UNRELIABLE`.
+    verdict : Verdict
+        ``ok``, ``caution`` or ``unreliable`` (its :attr:`~Verdict.code` is published).
     failed : tuple of str
         The names of the failed checks.
     """
@@ -114,7 +113,7 @@ class LiveChecks:
     band_width: float
     negative_share: float
     hindsight: "Hindsight | None"
-    verdict: int
+    verdict: Verdict
     failed: tuple[str, ...]
 
 
@@ -273,6 +272,6 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
         severity["band_width"] = CAUTION
     if negative > NEGATIVE_SHARE_MAX:
         severity["negative_stiffness"] = UNRELIABLE
-    verdict = max(severity.values(), default=OK)
+    verdict = Verdict.worst(severity.values())
     return LiveChecks(motion=motion, explained=explained, tracking=tracking, moved=moved, whiteness=white, band_width=width,
                       negative_share=negative, hindsight=looked_back, verdict=verdict, failed=tuple(severity))

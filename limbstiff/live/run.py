@@ -30,7 +30,7 @@ from ..files.columns import in_si, resolve_columns
 from ..files.outputs import jsonable, write_json
 from ..files.recording import GrowingTable, SegmentedRecording
 from ..protocol import Protocol
-from ..result import software
+from ..provenance import software
 from .checks import VERDICT_NAMES
 from .latency import Latency
 from .session import MEMORY_PERIODS, REFIT_EVERY_S, WARMUP_S, Identifier, LiveSession
@@ -380,7 +380,7 @@ def _summary(settings, description, session, stopped, latency, offsets, paths, n
             "tracking": checks.tracking, "moved": checks.moved,
             "whiteness": checks.whiteness, "band_width": checks.band_width,
             "negative_share": checks.negative_share, "hindsight": checks.hindsight,
-            "verdict": VERDICT_NAMES[checks.verdict],
+            "verdict": checks.verdict.value,
             "failed": list(checks.failed)},
         "latency": latency.summary(), "notes": notes, "seed": settings.seed, "software": software(),
     })

@@ -22,7 +22,8 @@ import numpy as np
 from ..errors import LimbstiffError
 from ..analysis import OBSERVABLE_PERIODS
 from .buffers import PublishedBand, Record, Window
-from .checks import NO_ESTIMATE, Hindsight, LiveChecks, hindsight, window_s
+from ..checks.verdict import NO_ESTIMATE
+from .checks import Hindsight, LiveChecks, hindsight, window_s
 from .identify import LONGEST_RECORD_S, REFIT_RECORD_S, LiveIdentification, identify_live, refit_live
 
 #: The first identification after this many seconds of record (``--warmup``), then each time the
@@ -258,7 +259,7 @@ class LiveSession:
             if self._since_check >= CHECK_EVERY_S * self.fs or fresh:
                 self._since_check = 0
                 self.events.checks = self._window.checks(self._looked_back)
-                self._verdict = self.events.checks.verdict
+                self._verdict = self.events.checks.verdict.code
             values[:, 4] = self._verdict
             if np.isnan(values[0, 0]):        # the estimate's first samples (a prefix): none yet
                 values[np.isnan(values[:, 0]), 4] = NO_ESTIMATE

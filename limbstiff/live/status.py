@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .checks import VERDICT_NAMES
 
 
 def status_line(session, *, stalled_s: float | None = None) -> str:
@@ -39,8 +38,7 @@ def status_line(session, *, stalled_s: float | None = None) -> str:
             parts.append(f"informed {100 * checks.motion:.0f} %")
         if np.isfinite(checks.explained):
             parts.append(f"explained {100 * checks.explained:.1f} %")
-        verdict = VERDICT_NAMES[checks.verdict]
-        parts.append(f"verdict {verdict}" + (f" ({', '.join(checks.failed)})" if checks.failed else ""))
+        parts.append(f"verdict {checks.verdict.value}" + (f" ({', '.join(checks.failed)})" if checks.failed else ""))
     if ev.dropped_samples:
         parts.append(f"dropped {ev.dropped_samples}")
     if ev.breaks:

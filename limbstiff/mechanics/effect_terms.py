@@ -24,7 +24,7 @@ class EffectTerms:
     Parameters
     ----------
     names : tuple of str
-        The effects (names of :data:`limbstiff.effects.candidates.CANDIDATES`).
+        The effects (names of :data:`limbstiff.effects.registry.CANDIDATES`).
     shapes : tuple of Mapping
         Each one's shape parameters (SI units).
     amplitude_names : tuple of str

@@ -16,8 +16,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .. import __version__
-from ..provenance import dependency_versions
+from ..provenance import dependencies_text, software
 from .common import FONT, MIN_FONT, TEXT_PANEL, footer, new_page, style, text_panel, write_pdf
 
 #: Trials per plot page.
@@ -291,8 +290,9 @@ def batch_figures(rows: Sequence[Mapping], *, sort_by: Sequence[str] | None = No
                                                  "the table lists why each failed.", wrap=80)
             figures.append(fig)
         figures += _table_pages(ordered, keys, units)
-        lines = [f"limbstiff {__version__} · {len(ordered)} trials · intervals at {100 * ci_level:.0f} %",
-                 ", ".join(f"{k} {v}" for k, v in dependency_versions().items())]
+        block = software()
+        lines = [f"limbstiff {block['version']} · {len(ordered)} trials · intervals at {100 * ci_level:.0f} %",
+                 dependencies_text(block)]
         for k, fig in enumerate(figures, start=1):
             footer(fig, lines, k, len(figures))
     return figures

@@ -18,8 +18,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .. import __version__
-from ..provenance import dependency_versions
+from ..provenance import dependencies_text, software
 from .common import footer, lean_ticks, style, write_pdf
 from .curve import curve_page
 from .mechanics import mechanics_page
@@ -34,10 +33,10 @@ def provenance_lines(result) -> list[str]:
     """The footer's lines: version, seed, source and settings hashes, dependency versions."""
     sha = result.trial.source_sha256
     settings = result.settings_sha256               # summary.json's, of which the footer shows a prefix
-    deps = ", ".join(f"{k} {v}" for k, v in dependency_versions().items())
-    return [f"limbstiff {__version__} · trial {result.trial.name} · seed {result.seed} · source sha256 "
+    block = software()
+    return [f"limbstiff {block['version']} · trial {result.trial.name} · seed {result.seed} · source sha256 "
             f"{sha[:12] if sha else '— (in memory)'} · settings {settings[:12]}",
-            deps]
+            dependencies_text(block)]
 
 
 def report_figures(result) -> list:

@@ -18,12 +18,13 @@ from typing import Mapping
 import numpy as np
 
 from ..trial import Trial
-from .effects import SIMULATED_EFFECTS, SimulatedEffect, Measurement
-from .plants import NO_EFFECT, DynamicsTerm, run
+from ..effects.registry import EFFECTS, Effect
+from ..effects.simulated import NO_EFFECT, DynamicsTerm, Measurement
+from .plants import run
 from .truth import CoupledLimb, TrueSignals
 from .scenarios import SCENARIOS, Scenario, check_common, lookup, merge_params
 
-__all__ = ["simulate", "simulate_with_truth", "SCENARIOS", "SIMULATED_EFFECTS", "Scenario", "SimulatedEffect",
+__all__ = ["simulate", "simulate_with_truth", "SCENARIOS", "EFFECTS", "Scenario", "Effect",
            "TrueSignals", "CoupledLimb", "describe_scenarios", "effect_defaults", "trial_scales"]
 
 
@@ -31,11 +32,11 @@ def _fmt(x: float) -> str:
     return f"{float(x):.12g}"
 
 
-def _lookup_effect(name: str) -> SimulatedEffect:
+def _lookup_effect(name: str) -> Effect:
     try:
-        return SIMULATED_EFFECTS[name]
+        return EFFECTS[name]
     except KeyError:
-        raise ValueError(f"unknown effect {name!r}; available: " + ", ".join(SIMULATED_EFFECTS)) from None
+        raise ValueError(f"unknown effect {name!r}; available: " + ", ".join(EFFECTS)) from None
 
 
 def trial_scales(truth: TrueSignals) -> dict[str, float]:
@@ -122,7 +123,7 @@ def _effect_for(setup, p: Mapping[str, float], effect: str | None,
 
     Returns
     -------
-    eff : SimulatedEffect or None
+    eff : Effect or None
     params : dict of str to float
     built : DynamicsTerm, Measurement or None
     """
@@ -189,7 +190,7 @@ def simulate(scenario: str, *, seed: int = 0, params: Mapping[str, float] | None
     params : Mapping[str, float], optional
         Overrides of the scenario's defaults (``fs``, ``duration``, ``torque_noise``…).
     effect : str, optional
-        A key of ``SIMULATED_EFFECTS``.
+        A key of :data:`~limbstiff.effects.registry.EFFECTS`.
     effect_params : Mapping[str, float], optional
         Overrides of the effect's defaults, which are sized on the scenario's nominal
         trial (see :func:`effect_defaults`).
@@ -242,7 +243,7 @@ def describe_scenarios() -> str:
         lines.append(f"  {sc.name} ({sc.kind}): {sc.description}")
         lines.append("      " + ", ".join(f"{k}={v:g}" for k, v in sc.defaults.items()))
     lines.append("Effects (defaults shown for the elbow; sized on each scenario's trial):")
-    for e in SIMULATED_EFFECTS.values():
+    for e in EFFECTS.values():
         lines.append(f"  {e.name} ({e.kind}): "
                      + ", ".join(f"{k}={v:g}" for k, v in e.defaults.items()))
     return "\n".join(lines)

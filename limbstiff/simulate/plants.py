@@ -25,6 +25,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from ..effects.simulated import DynamicsTerm
 from .truth import TrueSignals
 
 
@@ -106,40 +107,6 @@ class Setup:
     plant: Callable | None = None
     unrecorded_angle: Callable | None = None
     torque_sign: float = 1.0
-
-
-@dataclass(frozen=True)
-class DynamicsTerm:
-    """What an unmodelled effect adds to the equation of motion.
-
-    Parameters
-    ----------
-    torque : callable (y, v, z, vd, lib) -> N·m, optional
-        Effect torque e on the left-hand side (it resists motion when positive with ẏ);
-        ``z`` is the effect's internal state, ``vd`` the velocity ẏ(t − delay).
-    state_rate : callable (y, v, z) -> dz/dt, optional
-        Internal state dynamics, scalar floats (torque drive).
-    state_along : callable (y) -> z, optional
-        The same state integrated along a prescribed angle array (position drive).
-    delay : float
-        δ, s, of the delayed velocity (0 when not used).
-    inertia_scale, damping_scale : float
-        True inertia and damping as multiples of the nominal ones.
-    max_stiffness, max_damping : float
-        What the effect adds to the step-size bounds.
-    """
-
-    torque: Callable | None = None
-    state_rate: Callable | None = None
-    state_along: Callable | None = None
-    delay: float = 0.0
-    inertia_scale: float = 1.0
-    damping_scale: float = 1.0
-    max_stiffness: float = 0.0
-    max_damping: float = 0.0
-
-
-NO_EFFECT = DynamicsTerm()
 
 
 def internal_step(fs: float, inertia: float, max_stiffness: float,
