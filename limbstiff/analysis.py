@@ -222,17 +222,6 @@ def _corner_text(corner_hz: float | None) -> str:
     return "no filter" if corner_hz is None else f"{corner_hz:.3g} Hz"
 
 
-def _observable(filtered: Filtered, derived: DerivedSettings, bridged: np.ndarray | None = None) -> np.ndarray:
-    observable = observer.informed(filtered.velocity, observer_gain=derived.observer_gain,
-                                   sample_period=filtered.sample_period, window=derived.observable_window_s,
-                                   velocity_threshold=derived.velocity_threshold)
-    edge = filtered.edge
-    observable[:edge] = observable[len(observable) - edge:] = False     # derivatives unreliable there
-    if bridged is not None and len(bridged) == len(observable):
-        observable &= ~bridged           # interpolated across a gap in the file: not data
-    return observable
-
-
 def _warnings(trial: Trial, ident: Identification | None, observable: np.ndarray,
               scan: bandwidth.CornerScan | None) -> tuple[str, ...]:
     warnings = list(trial.warnings)
