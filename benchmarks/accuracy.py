@@ -52,9 +52,9 @@ def evaluate(result, skip=2.0):
 
 def trial_level_truth(result):
     """Each trial-level interval with the same figure of the true course (at the samples the
-    analysis computes them over: analysis.figure_samples_of), as (interval, truth) pairs in the
+    analysis computes them over: figure_draws.figure_samples_of), as (interval, truth) pairs in the
     order of trial_level.FIGURES; None when the trial has no trial-level intervals."""
-    from limbstiff.analysis import figure_samples_of
+    from limbstiff.figure_draws import figure_samples_of
     from limbstiff.trial_level import FIGURES, figures_of
     level = result.trial_level
     if level is None or not np.isfinite(level.median_stiffness.lo):
@@ -76,7 +76,9 @@ def band_cost(result) -> tuple[float, float]:
     band, and the two sensitivities) and of the trial-level figures (the angle terms' fit, and the
     joint draws: :data:`~limbstiff.trial_level.COURSE_DRAWS` smoother passes, the angle terms' and
     the m, b draws), on one trial."""
-    from limbstiff.analysis import limb_stiffness, trial_level_figures
+    from limbstiff.band import limb_stiffness
+    from limbstiff.coefficients import Coefficients
+    from limbstiff.figure_draws import trial_level_figures
     from limbstiff.estimate import estimators
     from limbstiff.checks.model import angle_terms_on
     m, b = result.inertia.median, result.damping.median
@@ -84,7 +86,7 @@ def band_cost(result) -> tuple[float, float]:
     estimate = estimators.kalman(result.filtered, inertia=m, damping=b, noise=result.fit.noise)
     t1 = time.perf_counter()
     angle = angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=result.filtered.motion_hz)
-    trial_level_figures(result.filtered, estimate, result.identification, result.observable,
+    trial_level_figures(result.filtered, estimate, Coefficients.of(result.identification), result.observable,
                         level=result.ci_level, seed=result.seed,
                         limb=lambda x: limb_stiffness(result.coupling, x, x, x)[0], angle=angle)
     return t1 - t0, time.perf_counter() - t1

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .estimate import observer
-from .analysis import analyze, default_gain
+from .analysis import analyze
+from .settings import default_gain
 from .protocol import Protocol
 from .simulate import simulate, simulate_with_truth
 

@@ -26,6 +26,7 @@ from .mechanics.posterior import Posterior
 from .protocol import Protocol
 from .scheduled.run import CurveAnalysis
 from .scheduled.curve import ScheduleCurve
+from .settings import DerivedSettings
 from .provenance import settings_hash, software
 from .trial import Trial
 from .trial_level import REFERENCE_SKIP_S, TrialLevel
@@ -34,34 +35,6 @@ __all__ = ["StiffnessResult", "DerivedSettings", "Interval", "software"]
 
 #: Samples per block of the per-sample masks taken in blocks (a long trial's temporaries stay small).
 BLOCK = 1 << 18
-
-@dataclass(frozen=True)
-class DerivedSettings:
-    """Settings of one analysis that the protocol left open and the trial's data decided.
-
-    Parameters
-    ----------
-    observer_gain : float, 1/rad (1/m)
-        α; by (8) the observer forgets its past over a path of 1/α.
-    discretisation : {"exact", "euler"}
-    range_of_motion : float, rad (m)
-        Span of the central 95 % of the angle.
-    velocity_threshold : float, rad/s (m/s)
-        Speeds below it count as no motion.
-    observable_window_s : float, s
-        Window over which recent motion must inform the estimate.
-    """
-
-    observer_gain: float
-    discretisation: str
-    range_of_motion: float
-    velocity_threshold: float
-    observable_window_s: float
-
-    @property
-    def observer_memory(self) -> float:
-        """1/α, rad (m)."""
-        return 1.0 / self.observer_gain
 
 
 @dataclass(frozen=True)

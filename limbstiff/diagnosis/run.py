@@ -17,7 +17,8 @@ from typing import Sequence
 import numpy as np
 
 from ..blas_threads import one_blas_thread
-from ..analysis import analyze, range_of_motion
+from ..analysis import analyze
+from ..settings import range_of_motion
 from ..errors import LimbstiffError, TrialError
 from ..protocol import MODEL_EFFECTS, Protocol
 from ..result import StiffnessResult

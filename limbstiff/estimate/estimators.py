@@ -19,8 +19,8 @@ import numpy as np
 from ..filtered import Filtered
 from . import observer
 from ..statespace.noise import NoiseLevels
-from ..statespace.steps import ModelSteps, kalman_decimation
-from .kalman import kalman_stiffness
+from ..statespace.steps import ModelSteps, kalman_decimation, model_steps
+from .kalman import fit_noise, kalman_stiffness
 
 
 @dataclass(frozen=True)
@@ -87,15 +87,30 @@ class Estimate:
         return self.variance + np.einsum("in,ij,jn->n", g, c, g)
 
 
+def _measured(filtered: Filtered, inertia: float | None, damping: float | None) -> np.ndarray:
+    """What the Kalman model measures: f − m·ÿ − b·ẏ, or the elastic torque (direct variant), N·m (N)."""
+    return filtered.elastic_torque(inertia, damping) if inertia is not None else filtered.torque
+
+
+def kalman_noise(filtered: Filtered, *, inertia: float | None = None, damping: float | None = None) -> NoiseLevels:
+    """The noise levels :func:`kalman` fits when given none (maximum likelihood on its model's
+    steps, :func:`~limbstiff.estimate.kalman.fit_noise`), without the smoothing."""
+    steps = model_steps(filtered.angle, _measured(filtered, inertia, damping), sample_period=filtered.sample_period,
+                        decimation=kalman_decimation(filtered.sample_period, filtered.cutoff_hz), edge=filtered.edge,
+                        motion_frequency=filtered.motion_hz, scale_from=filtered.torque)
+    return fit_noise(steps, motion_frequency=filtered.motion_hz)
+
+
 def kalman(filtered: Filtered, *, inertia: float | None = None, damping: float | None = None,
            noise: NoiseLevels | None = None, extra_regressors: np.ndarray | None = None) -> Estimate:
     """Kalman/RTS estimate; without ``inertia`` and ``damping`` the direct variant.
 
     ``extra_regressors`` (k, n): torques per unit amplitude (effects in the model, already taken
-    off ``filtered.torque``) whose amplitudes' sensitivities follow m's and b's.
+    off ``filtered.torque``) whose amplitudes' sensitivities follow m's and b's. Without ``noise``
+    the noise levels are fitted (:func:`kalman_noise`).
     """
     external = inertia is not None
-    measured = filtered.elastic_torque(inertia, damping) if external else filtered.torque
+    measured = _measured(filtered, inertia, damping)
     regressors = (filtered.acceleration, filtered.velocity) if external else ()
     if external and extra_regressors is not None:
         regressors += tuple(np.atleast_2d(extra_regressors))

@@ -1,7 +1,7 @@
 """What the live estimate must learn from the record so far: the corner, m and b, the noise levels.
 
 :func:`identify_live` runs the offline analysis's own steps on the samples received so far — the
-corner where the model predicts the torque best (:func:`limbstiff.analysis.filter_for_model`),
+corner where the model predicts the torque best (:func:`limbstiff.filtering.filter_for_model`),
 m and b with their emcee posterior (:func:`~limbstiff.mechanics.identification.identify_mechanics`)
 — then fits the model's noise levels by maximum likelihood on the causal chain's own steps (its
 filter is causal, so its noise is coloured differently from the zero-phase chain's) and runs the
@@ -17,7 +17,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..analysis import OBSERVABLE_PERIODS, filter_for_model
+from ..filtering import filter_for_model
+from ..settings import OBSERVABLE_PERIODS
 from ..estimate import estimators
 from ..estimate.kalman import data_guess, fit_noise_levels
 from ..filtered import filter_trial

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import LimbstiffError
-from ..analysis import OBSERVABLE_PERIODS
+from ..settings import OBSERVABLE_PERIODS
 from .buffers import PublishedBand, Record, Window
 from ..checks.verdict import NO_ESTIMATE
 from .checks import Hindsight, LiveChecks, hindsight, window_s
@@ -31,7 +31,7 @@ from .identify import LONGEST_RECORD_S, REFIT_RECORD_S, LiveIdentification, iden
 WARMUP_S = 5.0
 REIDENTIFY_EVERY_S = 60.0
 #: The stiffness's fading memory, in motion periods: the offline analysis calls a sample observable
-#: when the motion of the last as many periods informs it (:data:`~limbstiff.analysis.OBSERVABLE_PERIODS`).
+#: when the motion of the last as many periods informs it (:data:`~limbstiff.settings.OBSERVABLE_PERIODS`).
 #: Without it a stiffness that starts to change after the first identification saw it constant was
 #: followed seconds late (the simulated elbow's ramp: 34 % median error; with it 4 %).
 MEMORY_PERIODS = OBSERVABLE_PERIODS

@@ -1,0 +1,88 @@
+"""The trial-level figures over joint posterior draws of the stiffness course.
+
+The figures (:mod:`limbstiff.trial_level`) are taken at the Kalman model's steps, whichever
+estimator ran; their intervals come from joint draws of the course: its posterior
+(:func:`~limbstiff.estimate.course_draws.course_deviations`), the model's coefficients drawn
+through the estimate's sensitivity to them, and the stiffness's change with the angle within the
+cycle. Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .coefficients import Coefficients
+from .estimate.angle_terms import AngleTerms
+from .estimate.course_draws import course_deviations
+from .estimate.estimators import Estimate
+from .filtered import Filtered
+from .statespace.steps import kalman_decimation, step_index
+from .trial_level import FigureSamples, TrialLevel, course_draws_for, figure_samples, trial_level
+
+
+def figure_samples_of(filtered: Filtered, observable: np.ndarray) -> FigureSamples:
+    """The samples of a trial's figures: the Kalman model's steps (whichever estimator ran), thinned."""
+    decimation = kalman_decimation(filtered.sample_period, filtered.cutoff_hz)
+    steps = step_index(len(filtered.angle), edge=filtered.edge, decimation=decimation)
+    return figure_samples(steps, filtered.torque, observable, step=filtered.sample_period * decimation,
+                          motion_frequency=filtered.motion_hz)
+
+
+def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Coefficients | None,
+                        observable: np.ndarray, *, limb, level: float, seed: int,
+                        angle: AngleTerms | None = None) -> TrialLevel:
+    """The trial-level figures over joint draws of the course at the Kalman model's steps.
+
+    The draws are the course's posterior (:func:`course_deviations`) plus posterior draws of the
+    model's coefficients through the estimate's sensitivity, on the informed steps. With ``angle`` the course is the
+    stiffness with its change with the angle within the cycle: the part the smoothed course misses
+    (:meth:`AngleTerms.missed_course`) added, its coefficients drawn from their sandwich covariance.
+
+    Parameters
+    ----------
+    filtered : Filtered
+        The trial's filtered signals.
+    estimate : Estimate
+        The estimator's output; its steps and sensitivity, when it has them, give the draws.
+    coefficients : Coefficients or None
+        The model's linear coefficients (m, b, the effects' amplitudes…) with their posterior
+        draws; None when m and b are not in the model (direct variant).
+    observable : ndarray of bool, shape (n,)
+        The samples informed by motion.
+    limb : callable
+        Maps a one-body stiffness (an array of any shape) to the limb's, N·m/rad (N/m).
+    level : float
+        Level of the intervals (0.9 for 90 %).
+    seed : int
+        Seed of the draws.
+    angle : AngleTerms, optional
+        The stiffness's change with the angle within the cycle.
+
+    Returns
+    -------
+    TrialLevel
+        Its intervals are NaN when there is nothing to draw (no joint uncertainty).
+    """
+    samples = figure_samples_of(filtered, observable)
+    rng = np.random.default_rng([seed, 14])
+    n_draws = course_draws_for(len(samples.index) if estimate.steps is None else len(estimate.steps.index))
+    base = estimate.stiffness[samples.index]
+    draws, sources = np.repeat(base[None, :], n_draws, axis=0), []
+    if estimate.steps is not None:
+        draws += course_deviations(estimate.steps, estimate.fit.noise, draws=n_draws, rng=rng,
+                                   columns=samples.columns)
+        sources.append("course")
+    if angle is not None:
+        missed = angle.missed[:, samples.columns]
+        base = base + angle.coefficients @ missed
+        draws += rng.multivariate_normal(angle.coefficients, angle.covariance, n_draws) @ missed
+        sources.append("angle")
+    if coefficients is not None and coefficients.draws is not None and estimate.sensitivity is not None:
+        coef = coefficients.draws[rng.integers(0, len(coefficients.draws), n_draws)]
+        draws += (coef - coefficients.values) @ coefficients.rows_of(estimate.sensitivity)[:, samples.index]
+        sources.append("mechanics")
+    if not sources:
+        draws = np.full_like(draws, np.nan)           # no joint uncertainty: no interval claimed
+    informed = samples.informed
+    return trial_level(limb(base)[informed], limb(draws)[:, informed], samples.torque[informed], level=level,
+                       sources=tuple(sources))
