@@ -3,8 +3,9 @@
     python benchmarks/reflex_study.py [--seeds 3] [--jobs 2] [--gains 0,2,4,6,8,10]
                                       [--duration 60] [--direction 1] [--quick]
 
-The trials come from a generator of this file's own, written from the published design of
-Guarín & Kearney (Frontiers 2020) and independent of limbstiff's simulator and equations:
+The trials come from a generator of this study's own (``benchmarks/generators/gated_reflex.py``),
+written from the published design of Guarín & Kearney (Frontiers 2020) and independent of
+limbstiff's simulator and equations:
 
 * one-DOF joint, K = 30 N·m/rad, B = 0.8 N·m·s/rad, I = 0.012 kg·m²;
 * the angle is prescribed (a position-controlled actuator): random ±0.03 rad levels, a new
@@ -52,120 +53,33 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from scipy import linalg, signal
 
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE), str(HERE.parent)]
 from _results import machine, update_section  # noqa: E402
 
-K_TRUE, B_TRUE, I_TRUE = 30.0, 0.8, 0.012
-AMPLITUDE, SWITCH_S, CORNER_HZ, ORDER = 0.03, 0.2, 30.0, 4
-DELAY_S, THRESHOLD, OMEGA, ZETA = 0.040, 0.5, 15.6, 0.62
-SNR_DB, COUNTS_PER_REV = 15.0, 2 ** 16
-FS, FINE = 1000.0, 10                 # sampling rate, Hz; fine steps per sample (10 kHz)
-SIGNS = {"resisting": +1, "published": -1}
+from benchmarks.generators.gated_reflex import (  # noqa: E402  (the generator, shared)
+    AMPLITUDE, B_TRUE, CORNER_HZ, DELAY_S, FS, I_TRUE, K_TRUE, OMEGA, ORDER, SIGNS, SNR_DB, SWITCH_S, THRESHOLD,
+    ZETA)
+from benchmarks.generators.gated_reflex import generate as _generate  # noqa: E402
+
 MODES = ("identified", "given", "identified+reflex", "given+reflex")
 #: Guarín & Kearney's least-squares K (published sign), by reflex gain.
 PAPER_LS = {0: 30.0, 2: 24.9, 4: 19.8, 6: 14.5, 8: 9.7, 10: 4.5}
 WRONG, CLOSE = 0.20, 0.10
 
 
-def butterworth_state_space() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Continuous Butterworth low-pass of the perturbation as (A, B, C), unit DC gain."""
-    z, p, k = signal.butter(ORDER, 2 * np.pi * CORNER_HZ, analog=True, output="zpk")
-    a, b, c, _ = signal.zpk2ss(z, p, k)
-    return a, b[:, 0], c[0]
-
-
-def prescribed_motion(levels: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Exact angle, velocity and acceleration of the filtered step sequence on a fine grid.
-
-    Parameters
-    ----------
-    levels : ndarray, shape (n_slots,), rad
-        Level held during each switching interval.
-    dt : float, s
-        Fine step; ``SWITCH_S / dt`` must be an integer.
-
-    Returns
-    -------
-    theta, velocity, acceleration : ndarray, shape (n_slots · SWITCH_S / dt,)
-        rad, rad/s, rad/s², at t = 0, dt, 2·dt… (state at rest at the first level for t ≤ 0).
-    """
-    a, b, c = butterworth_state_space()
-    per = int(round(SWITCH_S / dt))
-    step = linalg.expm(a * dt)
-    powers = np.empty((per, len(b), len(b)))
-    powers[0] = np.eye(len(b))
-    for j in range(1, per):
-        powers[j] = step @ powers[j - 1]
-    unit = -np.linalg.solve(a, b)             # steady state per unit input
-    x = unit * levels[0]
-    states = np.empty((len(levels), per, len(b)))
-    for k, u in enumerate(levels):
-        states[k] = unit * u + powers @ (x - unit * u)
-        x = unit * u + step @ (states[k, -1] - unit * u)
-    states = states.reshape(-1, len(b))
-    return states @ c, states @ (c @ a), states @ (c @ a @ a)
-
-
-def reflex_torque(velocity: np.ndarray, dt: float, gain: float, sign: int, direction: int = 1) -> np.ndarray:
-    """Reflex torque the actuator meets: delayed, rectified velocity through the activation.
-
-    Parameters
-    ----------
-    velocity : ndarray, rad/s
-        Joint velocity on the fine grid (at rest before the first sample).
-    dt : float, s
-        Fine step.
-    gain : float, N·m·s/rad
-    sign : {+1, −1}
-        +1 resists the stretch, −1 the published sign.
-    direction : {+1, −1}
-        Direction of motion that stretches the muscle.
-
-    Returns
-    -------
-    ndarray, N·m
-    """
-    lag = int(round(DELAY_S / dt))
-    delayed = np.concatenate([np.zeros(lag), velocity[:len(velocity) - lag]])
-    drive = sign * direction * gain * np.maximum(direction * delayed - THRESHOLD, 0.0)
-    num, den, _ = signal.cont2discrete(([OMEGA ** 2], [1.0, 2 * ZETA * OMEGA, OMEGA ** 2]), dt, method="foh")
-    return signal.lfilter(np.ravel(num), den, drive)
-
-
 def generate(gain: float, sign: int, seed: int, duration: float, direction: int = 1) -> dict:
-    """One trial of the design: exact kinematics, torques and the measured channels at 1 kHz.
-
-    Returns
-    -------
-    dict
-        ``time``, ``angle`` (quantised), ``torque`` (noisy), the exact ``theta``, ``velocity``,
-        ``acceleration`` and ``reflex`` at the samples, and ``noise_sd``.
-    """
-    rng = np.random.default_rng(seed)
-    slots = int(np.ceil(duration / SWITCH_S))
-    levels = AMPLITUDE * rng.choice([-1.0, 1.0], size=slots)
-    z = rng.standard_normal(int(round(slots * SWITCH_S * FS)))
-    dt = 1.0 / (FS * FINE)
-    theta, vel, acc = prescribed_motion(levels, dt)
-    reflex = reflex_torque(vel, dt, gain, sign, direction)
-    n = int(round(duration * FS))
-    pick = np.arange(n) * FINE
-    theta, vel, acc, reflex = theta[pick], vel[pick], acc[pick], reflex[pick]
-    clean = I_TRUE * acc + B_TRUE * vel + K_TRUE * theta + reflex
-    sd = float(np.sqrt(np.mean(clean ** 2)) / 10 ** (SNR_DB / 20))
-    q = 2 * np.pi / COUNTS_PER_REV
-    return dict(time=np.arange(n) / FS, angle=np.round(theta / q) * q, torque=clean + sd * z[:n],
-                theta=theta, velocity=vel, acceleration=acc, reflex=reflex, noise_sd=sd)
+    """One trial of the design (:func:`benchmarks.generators.gated_reflex.generate`) from
+    ``numpy.random.default_rng(seed)``."""
+    return _generate(gain, sign, np.random.default_rng(seed), duration, direction)
 
 
 def make_trial(gain: float, sign_name: str, seed: int, duration: float, direction: int = 1):
     """The generated trial as a :class:`limbstiff.trial.Trial` with ``stiffness_true`` = 30."""
     from limbstiff.trial import Trial
     g = generate(gain, SIGNS.get(sign_name, 1), seed, duration, direction)
-    meta = {"generator": "benchmarks/reflex_study.py (Guarín & Kearney 2020 design)",
+    meta = {"generator": "benchmarks/generators/gated_reflex.py (Guarín & Kearney 2020 design)",
             "reflex_gain": f"{gain:g}", "reflex_sign": sign_name, "direction": str(direction),
             "seed": str(seed)}
     trial = Trial(name=f"reflex-{sign_name}-G{gain:g}-s{seed}", time=g["time"], angle=g["angle"],
