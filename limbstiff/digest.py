@@ -39,10 +39,11 @@ class CycleCourse(NamedTuple):
     time : ndarray, s
         Middle of the cycle.
     stiffness : ndarray, N·m/rad (N/m)
-        Median of the estimate over the cycle's informed samples (NaN for an uninformed cycle; over
-        all samples when none of the trial is informed).
+        Median over the cycle's informed samples of the course the headline median is taken over
+        (NaN for an uninformed cycle; over all samples when none of the trial is informed).
     lo, hi : ndarray, N·m/rad (N/m)
-        Medians of the band's bounds over those samples: the per-sample band, typical for the cycle.
+        Medians of the band's bounds over those samples, moved with that course: the per-sample
+        band, typical for the cycle.
     informed : ndarray of bool
         At least half of the cycle's samples informed by motion (and clear of the filter's edges).
     seconds : float, s
