@@ -39,10 +39,11 @@ class CycleCourse(NamedTuple):
     time : ndarray, s
         Middle of the cycle.
     stiffness : ndarray, N·m/rad (N/m)
-        Median of the estimate over the cycle's informed samples (NaN for an uninformed cycle; over
-        all samples when none of the trial is informed).
+        Median over the cycle's informed samples of the course the headline median is taken over
+        (NaN for an uninformed cycle; over all samples when none of the trial is informed).
     lo, hi : ndarray, N·m/rad (N/m)
-        Medians of the band's bounds over those samples: the per-sample band, typical for the cycle.
+        Medians of the band's bounds over those samples, moved with that course: the per-sample
+        band, typical for the cycle.
     informed : ndarray of bool
         At least half of the cycle's samples informed by motion (and clear of the filter's edges).
     seconds : float, s
@@ -67,6 +68,25 @@ def _bin_samples(result) -> int:
     return step * max(1, int(round(result.trial.fs / motion_hz / step)))
 
 
+def _course_samples(result) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The samples :func:`cycle_course` bins and their values: the course the trial-level figures
+    (the headline median among them) are taken over, at their samples, with the band moved with it
+    (:attr:`~limbstiff.trial_level.TrialLevel.course`); without one every sample of the estimate,
+    the filter's edge samples left out. Returns sample index, course, band's bounds and the
+    samples used, each shape (c,)."""
+    level = getattr(result, "trial_level", None)
+    if level is not None and level.course is not None:
+        index, course = level.index, level.course
+        shift = course - result.stiffness[index]
+        return index, course, result.stiffness_lo[index] + shift, result.stiffness_hi[index] + shift, level.informed
+    n = result.stiffness.size
+    use = np.asarray(result.observable, bool).copy()
+    edge = int(getattr(result.filtered, "edge", 0) or 0)
+    if edge:
+        use[:edge] = use[n - edge:] = False
+    return np.arange(n), result.stiffness, result.stiffness_lo, result.stiffness_hi, use
+
+
 def cycle_course(result) -> CycleCourse:
     """The stiffness course binned to one period of the trial's motion, over its informed samples.
 
@@ -78,6 +98,10 @@ def cycle_course(result) -> CycleCourse:
     stiffness walk of the model has no time constant of its own to bin to, so the motion's period
     is the finest resolution a reader can trust; a course that changes over seconds (the bundled
     elbow's ramp) keeps its shape. Bins are whole Kalman steps (the smoother's own resolution).
+
+    What is binned is what the headline's median is the median of (:func:`_course_samples`): the
+    course at the trial-level figures' samples, with the stiffness's change with the angle within
+    the cycle when the analysis found one, so that the headline lies within the range drawn.
 
     The band drawn with a cycle is the median of the per-sample band over it: the uncertainty of a
     value at one instant of the cycle, not the (narrower) one of the cycle's median, which would need
@@ -95,10 +119,8 @@ def cycle_course(result) -> CycleCourse:
     """
     n = result.stiffness.size
     width = min(_bin_samples(result), n)
-    use = np.asarray(result.observable, bool).copy()
-    edge = int(getattr(result.filtered, "edge", 0) or 0)
-    if edge:
-        use[:edge] = use[n - edge:] = False
+    index, course, lo, hi, use = _course_samples(result)
+    use = np.asarray(use, bool).copy()
     anything = use.any()
     if not anything:                                    # drawn over all samples, every cycle uninformed
         use[:] = True
@@ -107,11 +129,12 @@ def cycle_course(result) -> CycleCourse:
     k = starts.size
     out = np.full((3, k), np.nan)
     informed = np.zeros(k, bool)
-    for j, (a, b) in enumerate(zip(starts, stops)):
+    edges = np.append(np.searchsorted(index, starts), len(index))     # index is sorted: bins are runs of it
+    for j, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
         sel = use[a:b]
-        informed[j] = 2 * np.count_nonzero(sel) >= b - a
+        informed[j] = b > a and 2 * np.count_nonzero(sel) >= b - a
         if informed[j]:
-            out[:, j] = [np.median(x[a:b][sel]) for x in (result.stiffness, result.stiffness_lo, result.stiffness_hi)]
+            out[:, j] = [np.median(x[a:b][sel]) for x in (course, lo, hi)]
     t = result.trial.time
     middle = 0.5 * (t[starts] + t[stops - 1])
     return CycleCourse(middle, out[0], out[1], out[2], informed & anything, width / result.trial.fs)

@@ -9,6 +9,8 @@ cycle. Pure numpy: no I/O.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .coefficients import Coefficients
@@ -63,18 +65,16 @@ def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Co
     TrialLevel
         Its intervals are NaN when there is nothing to draw (no joint uncertainty).
     """
-    samples = figure_samples_of(filtered, observable)
+    samples, base = figure_course(filtered, estimate, observable, angle=angle)
     rng = np.random.default_rng([seed, 14])
     n_draws = course_draws_for(len(samples.index) if estimate.steps is None else len(estimate.steps.index))
-    base = estimate.stiffness[samples.index]
-    draws, sources = np.repeat(base[None, :], n_draws, axis=0), []
+    draws, sources = np.repeat(estimate.stiffness[samples.index][None, :], n_draws, axis=0), []
     if estimate.steps is not None:
         draws += course_deviations(estimate.steps, estimate.fit.noise, draws=n_draws, rng=rng,
                                    columns=samples.columns)
         sources.append("course")
     if angle is not None:
         missed = angle.missed[:, samples.columns]
-        base = base + angle.coefficients @ missed
         draws += rng.multivariate_normal(angle.coefficients, angle.covariance, n_draws) @ missed
         sources.append("angle")
     if coefficients is not None and coefficients.draws is not None and estimate.sensitivity is not None:
@@ -84,5 +84,27 @@ def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Co
     if not sources:
         draws = np.full_like(draws, np.nan)           # no joint uncertainty: no interval claimed
     informed = samples.informed
-    return trial_level(limb(base)[informed], limb(draws)[:, informed], samples.torque[informed], level=level,
-                       sources=tuple(sources))
+    course = limb(base)
+    return dataclasses.replace(trial_level(course[informed], limb(draws)[:, informed], samples.torque[informed],
+                                           level=level, sources=tuple(sources)),
+                               course=course, index=samples.index, informed=informed)
+
+
+def figure_course(filtered: Filtered, estimate: Estimate, observable: np.ndarray, *,
+                  angle: AngleTerms | None = None) -> tuple[FigureSamples, np.ndarray]:
+    """The one-body course the trial-level figures are taken over: the estimate at the figure's
+    samples (:func:`figure_samples_of`), with the stiffness's change with the angle within the cycle
+    that the smoothed course misses (:meth:`AngleTerms.missed_course`) when ``angle`` is given.
+    The analysis's median stiffness is the median of its limb's value over the informed samples;
+    the diagnosis's stiffness with an effect removed is taken the same way.
+
+    Returns
+    -------
+    samples : FigureSamples
+    course : ndarray, shape (c,), N·m/rad (N/m)
+    """
+    samples = figure_samples_of(filtered, observable)
+    base = estimate.stiffness[samples.index]
+    if angle is not None:
+        base = base + angle.coefficients @ angle.missed[:, samples.columns]
+    return samples, base

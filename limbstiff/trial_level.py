@@ -16,7 +16,7 @@ with its change with the angle within the motion cycle, which the smoothed cours
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
@@ -80,6 +80,10 @@ class TrialLevel:
         What the draws vary: ``"course"`` (the smoother's joint posterior), ``"angle"`` (the
         stiffness's change with the angle within the cycle, :mod:`limbstiff.estimate.angle_terms`),
         ``"mechanics"`` (m, b).
+    course : ndarray, shape (c,), N·m/rad (N/m), optional
+        The course the figures are taken over, at the samples ``index`` (c,) (the model's steps,
+        thinned), ``informed`` (c,) marking those the figures use: what page 1 draws per motion
+        cycle (:func:`limbstiff.digest.cycle_course`), so that its median lies within the drawing.
     """
 
     median_stiffness: Interval
@@ -88,6 +92,9 @@ class TrialLevel:
     level: float
     draws: int
     sources: tuple[str, ...]
+    course: np.ndarray | None = field(default=None, compare=False, repr=False)
+    index: np.ndarray | None = field(default=None, compare=False, repr=False)
+    informed: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def to_dict(self) -> dict:
         extra = ANGLE_WORDS if "angle" in self.sources else ""

@@ -163,3 +163,21 @@ def test_z_df_stiffness_against_angle(results):
     assert label == "Stiffness vs angle"
     assert text.startswith("the stiffness is highest, 121 N·m/rad at") and "page 3" in text
     assert "the median summarises a stiffness that varies with the angle" in text
+
+
+@pytest.mark.parametrize("name", list(REFERENCE))
+def test_page_one_and_the_diagnosis_state_the_analysis_median(results, name):
+    """One answer (issue 45): page 1's headline median lies within the per-cycle course it draws, and
+    the stiffness the diagnosis measures an effect's bias from (the analysis's model and summary on
+    the trial as recorded) is that median."""
+    from limbstiff.diagnosis.bias import analysis_stiffness
+    from limbstiff.digest import cycle_course
+    from limbstiff.effects.channels import channels_from
+    result = results[name]
+    median = result.informed_stiffness()[0].median
+    course = cycle_course(result)
+    drawn = course.stiffness[course.informed]
+    assert drawn.min() <= median <= drawn.max()
+    protocol = load_protocol(PROTOCOLS / "reklab-ankle.toml")
+    assert analysis_stiffness(result.trial, result, channels_from(result.trial, result),
+                              protocol) == pytest.approx(median, rel=1e-12)

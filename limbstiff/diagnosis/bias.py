@@ -9,9 +9,11 @@ import dataclasses
 
 import numpy as np
 
+from ..band import limb_stiffness
+from ..figure_draws import figure_course
+from ..checks.model import angle_terms_on
 from ..errors import LimbstiffError
 from ..estimate import estimators
-from ..estimate.observer import informed_samples
 from ..filtered import filter_trial
 from ..protocol import Protocol
 from ..trial import Trial
@@ -30,32 +32,48 @@ def _corrected_trial(trial: Trial, ch: Channels, corr) -> Trial:
     return dataclasses.replace(trial, **changes) if changes else trial
 
 
-def median_stiffness(trial: Trial, result, ch: Channels, protocol: Protocol, inertia: float | None = None,
-                     damping: float | None = None) -> float:
-    """Median Kalman stiffness of ``trial`` over ``result``'s informed samples, N·m/rad.
+def analysis_stiffness(trial: Trial, result, ch: Channels, protocol: Protocol, inertia: float | None = None,
+                       damping: float | None = None) -> float:
+    """The median stiffness the analysis ``result`` would report for ``trial``, N·m/rad, with m and b
+    ``inertia`` and ``damping`` (default those of ``ch``, the analysis's).
 
-    The trial is filtered at the analysis's corner and the Kalman estimator run with m and b
-    fixed (``inertia``, ``damping``; default those of ``ch``): the stiffness the analysis would
-    give with them, without its choice of corner, coupling test and checks, so that the nominal
-    and a corrected trial differ only by the correction.
+    The analysis's own model and summary, without its choices from the data: the trial filtered at
+    its corner, the Kalman estimate at its noise levels (not refitted: a corrected trial then differs
+    from the nominal one by the correction alone), the change with the angle within the cycle when
+    the analysis added it, the limb's stiffness when it undid a coupling, and the median over the
+    informed samples of its trial-level figures (:func:`limbstiff.figure_draws.figure_course`). On the
+    analysis's own trial, m and b it is the median the analysis reports (an ensemble's aside: its
+    curve is not re-estimated here).
     """
     filtered = filter_trial(trial, protocol, corner_hz=ch.cutoff_hz)
+    filtered = dataclasses.replace(filtered, motion_hz=ch.motion_hz)
+    noise = None if result.fit is None else result.fit.noise
     if ch.mechanics == "none":
-        est = estimators.kalman(filtered)
+        est = estimators.kalman(filtered, noise=noise)
     else:
-        est = estimators.kalman(filtered, inertia=ch.inertia if inertia is None else inertia,
+        est = estimators.kalman(filtered, noise=noise, inertia=ch.inertia if inertia is None else inertia,
                                 damping=ch.damping if damping is None else damping)
-    return float(np.median(est.stiffness[informed_samples(result.observable)]))
+    level = result.trial_level
+    angle = (angle_terms_on(est.steps, est.fit.noise, motion_frequency=filtered.motion_hz)
+             if level is not None and "angle" in level.sources else None)
+    samples, course = figure_course(filtered, est, result.observable, angle=angle)
+    if limb_stiffness(result.coupling, est.stiffness, est.stiffness, est.stiffness)[0] is not est.stiffness:
+        course = result.coupling.limb_stiffness(course)
+    return float(np.median(course[samples.informed]))
 
 
 def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_trial, *, nominal_stiffness,
-                     mechanics=None) -> StiffnessBias:
+                     baseline, mechanics=None, nominal_mechanics=None) -> StiffnessBias:
     """Median stiffness of each trial with the fitted effects removed, against the nominal one.
 
     The trial's recorded channels are corrected (the effect's torque taken off the recorded
-    torque, or its recorded channel corrected, or m and b corrected), m and b fixed — to the
-    nominal values, or to those fitted with the effects when they are identified (``mechanics``:
-    per trial (m, b) or None) — and the stiffness estimated again (:func:`median_stiffness`).
+    torque, or its recorded channel corrected, or m and b corrected), m and b moved as fitting the
+    effects moves them when they are identified (``mechanics`` less ``nominal_mechanics``: per trial
+    (m, b) of the diagnosis's model with the effects and without, or None), and the stiffness
+    estimated again as the analysis estimates it (:func:`analysis_stiffness`). The corrected median is
+    the nominal one (the analysis's) moved by the change the correction makes: ``baseline`` is
+    :func:`analysis_stiffness` of the trial as recorded, equal to the nominal one but for an
+    ensemble's curve.
 
     Returns
     -------
@@ -65,19 +83,21 @@ def stiffness_change(trials, results, channels, protocol: Protocol, fitted_per_t
     """
     per = {}
     mechanics = mechanics or [None] * len(trials)
-    for trial, res, ch, fitted, mech, nom in zip(trials, results, channels, fitted_per_trial, mechanics,
-                                                 nominal_stiffness):
+    nominal_mechanics = nominal_mechanics or [None] * len(trials)
+    for trial, res, ch, fitted, mech, mech0, nom, base in zip(trials, results, channels, fitted_per_trial, mechanics,
+                                                            nominal_mechanics, nominal_stiffness, baseline):
         try:
             if any(not np.all(np.isfinite(np.atleast_1d(coef))) for _, _, coef in fitted):
                 raise LimbstiffError("the effect's amplitude could not be fitted")
             corr = remove(ch, fitted)
-            if mech is not None:
-                corr = dataclasses.replace(corr, inertia=corr.inertia - ch.inertia + mech[0],
-                                           damping=corr.damping - ch.damping + mech[1])
+            if mech is not None and mech0 is not None:
+                corr = dataclasses.replace(corr, inertia=corr.inertia + mech[0] - mech0[0],
+                                           damping=corr.damping + mech[1] - mech0[1])
             if ch.mechanics != "none" and not (corr.inertia > 0 and corr.damping > 0):
                 raise LimbstiffError(f"the corrected inertia ({corr.inertia:.3g}) or damping ({corr.damping:.3g}) "
                                      "is not positive")
-            new = median_stiffness(_corrected_trial(trial, ch, corr), res, ch, protocol, corr.inertia, corr.damping)
+            new = nom + analysis_stiffness(_corrected_trial(trial, ch, corr), res, ch, protocol, corr.inertia,
+                                           corr.damping) - base
         except LimbstiffError as exc:
             per[trial.name] = TrialBias(nominal=nom, corrected=None, relative=None, error=str(exc))
             continue

@@ -37,7 +37,7 @@ import numpy as np
 from .. import heldout
 from ..estimate.observer import informed_samples
 from ..statespace.linear import marginal
-from ..statespace.noise import NoiseLevels, nelder_mead, noise_bounds
+from ..statespace.noise import NoiseLevels, fit_levels, noise_bounds
 from ..statespace.steps import ModelSteps, kalman_decimation
 from ..effects.channels import Channels
 
@@ -150,30 +150,17 @@ def layout(ch: Channels, *, blocks: int) -> ScoringLayout:
 
 
 def fit_noise(steps: ModelSteps, *, start: NoiseLevels, motion_hz: float) -> NoiseLevels:
-    """Noise levels of the model by maximum marginal likelihood.
-
-    Nelder–Mead on the log levels within the analysis's bounds
-    (:func:`~limbstiff.statespace.noise.noise_bounds`), from ``start`` and from the best point of
-    a 5 × 5 grid over the measurement noise and the stiffness walks (both kinds at one level), the better kept. The
-    likelihood has two kinds of optimum — a stiffness that walks and tracks the torque, and a
-    constant one with the rest as measurement noise — and an unmodelled effect can make the
-    second the better; once the effect is in the model the first must still be found from where
-    the model without it ended (measured: a friction trial of a gait-like ankle, 60 ↔ 110
-    N·m/rad every 1.2 s, stayed at the constant stiffness when the search started there and
-    the stiffness walk was moved by 10³), and two models compared at different optima would
-    differ by the optimiser, not by the effect.
+    """Noise levels of the model by maximum marginal likelihood: the one noise fit
+    (:func:`~limbstiff.statespace.noise.fit_levels`, which says why it starts where it does) from
+    ``start``, within the analysis's bounds (:func:`~limbstiff.statespace.noise.noise_bounds`).
     """
     z = steps.channels[0]
     bounds = noise_bounds(float(np.var(z - z.mean())), float(np.sqrt(steps.initial_cov[2])), motion_hz)
-    lo, hi = np.array(bounds).T
-    x0 = np.clip(start.logs(), lo, hi)
 
     def loglik(x):
-        value = marginal(steps, NoiseLevels(*np.exp(x))).loglik
-        return value if np.isfinite(value) else -np.inf
+        return marginal(steps, NoiseLevels(*np.exp(x))).loglik
 
-    grid = [np.array([r, x0[1], k, k]) for r in np.linspace(lo[0], hi[0], 5) for k in np.linspace(lo[2], hi[2], 5)]
-    best, _ = nelder_mead(loglik, (x0, max(grid, key=loglik)), bounds, NOISE_EVALUATIONS)
+    best, _ = fit_levels(loglik, start.logs(), bounds, NOISE_EVALUATIONS)
     return NoiseLevels(*np.exp(best))
 
 

@@ -24,7 +24,7 @@ from ..protocol import MODEL_EFFECTS, Protocol
 from ..result import StiffnessResult
 from ..trial import Trial
 from . import crossval, nominal, residual, selection
-from .bias import median_stiffness, stiffness_change
+from .bias import analysis_stiffness, stiffness_change
 from ..effects.channels import channels_from
 from ..effects.registry import CANDIDATES, EFFECTS
 from ..effects.kinds import MechanicsOffset
@@ -172,19 +172,23 @@ class _Run:
             return None
         return {ch.name: Mechanics(inertia=m[0], damping=m[1]) for ch, m in zip(self.channels, mechanics)}
 
-    @functools.cached_property
+    @property
     def nominal_stiffness(self) -> list[float]:
-        """Each trial's :func:`median_stiffness` with the nominal m and b: those given, or, when
-        identified, those the diagnosis's nominal model fits (so that an effect's bias is measured
-        between two fits of the same model, with and without it)."""
-        mech = self.sel.nominal.mechanics or [None] * len(self.trials)
-        return [median_stiffness(t, r, c, self.protocol, *(m if m is not None else (None, None)))
-                for t, r, c, m in zip(self.trials, self.results, self.channels, mech)]
+        """Each trial's median stiffness as its analysis reports it: the nominal model's is the
+        analysis's (same filter, corner, coupling, m, b and noise levels)."""
+        return [r.informed_stiffness()[0].median for r in self.results]
+
+    @functools.cached_property
+    def baseline(self) -> list[float]:
+        """Each trial's :func:`analysis_stiffness` as recorded: what a corrected trial's is compared
+        with (the nominal one but for an ensemble's curve)."""
+        return [analysis_stiffness(t, r, c, self.protocol) for t, r, c in zip(self.trials, self.results, self.channels)]
 
     def stiffness_change(self, fitted: list, mechanics=None) -> StiffnessBias:
         """:func:`stiffness_change` of the same fitted effects removed from every trial."""
         return stiffness_change(self.trials, self.results, self.channels, self.protocol, [fitted] * len(self.trials),
-                                nominal_stiffness=self.nominal_stiffness, mechanics=mechanics)
+                                nominal_stiffness=self.nominal_stiffness, baseline=self.baseline,
+                                mechanics=mechanics, nominal_mechanics=self.sel.nominal.mechanics)
 
 
 def _stiffness_with_effects(run: _Run) -> tuple[TrialStiffness, ...]:

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..statespace.noise import NoiseLevels, maximise, noise_bounds
+from ..statespace.noise import NoiseLevels, fit_levels, noise_bounds
 from ..statespace.smoother import at_steps, kalman_loglik, kalman_smoother, to_samples
 from ..statespace.steps import ModelSteps, initial_slopes, model_steps
 
@@ -74,7 +74,8 @@ class KalmanStiffness:
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, deflection: np.ndarray,
                      initial_mean, initial_cov, guess: NoiseLevels, motion_frequency: float,
                      max_evaluations: int = 400) -> tuple[NoiseLevels, float]:
-    """Maximum-likelihood noise levels within :func:`~limbstiff.statespace.noise.noise_bounds`.
+    """Maximum-likelihood noise levels within :func:`~limbstiff.statespace.noise.noise_bounds`, by
+    the one noise fit (:func:`~limbstiff.statespace.noise.fit_levels`) from ``guess``.
 
     Returns
     -------
@@ -88,7 +89,7 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
         return kalman_loglik(increments, measured, NoiseLevels(*np.exp(x)), step=step, deflection=deflection,
                              initial_mean=initial_mean, initial_cov=initial_cov)
 
-    best, value = maximise(loglik, x0, bounds, max_evaluations)
+    best, value = fit_levels(loglik, x0, bounds, max_evaluations)
     return NoiseLevels(*np.exp(best)), value
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..statespace.linear import innovations, long_run_lags, marginal, marginal_many, sandwich_covariance
-from ..statespace.noise import NoiseLevels, maximise, noise_bounds
+from ..statespace.noise import NoiseLevels, fit_levels, noise_bounds
 from ..statespace.steps import ModelSteps, mechanics_steps
 from .least_squares import LeastSquaresFit
 
@@ -155,7 +155,8 @@ def robust_covariance(problem: "MechanicsProblem", log_noise, mean: np.ndarray, 
 
 def kalman_mechanics(problem: MechanicsProblem, *, guess: LeastSquaresFit,
                      max_evaluations: int = 400) -> MechanicsFit:
-    """Inertia and damping under the Kalman model, noise levels by maximum marginal likelihood.
+    """Inertia and damping under the Kalman model, noise levels by maximum marginal likelihood
+    (the one noise fit, :func:`~limbstiff.statespace.noise.fit_levels`).
 
     Parameters
     ----------
@@ -174,8 +175,7 @@ def kalman_mechanics(problem: MechanicsProblem, *, guess: LeastSquaresFit,
     duration = problem.steps.step * len(problem.steps.increments)
     walk = (0.1 * abs(problem.steps.slopes[0]) + 1e-12) ** 2
     start = np.log([resid_var, resid_var / duration, walk, walk])
-    best, _ = maximise(lambda logs: problem.conditional(logs)[0], start, list(problem.bounds),
-                                 max_evaluations)
+    best, _ = fit_levels(lambda logs: problem.conditional(logs)[0], start, list(problem.bounds), max_evaluations)
     loglik, mean, cov = problem.conditional(best)
     k = problem.n_mechanics
     m, b = (float(mean[0]), float(mean[1])) if k else (float("nan"), float("nan"))
