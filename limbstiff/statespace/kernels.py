@@ -68,15 +68,13 @@ def step(mean, e, chans, i, p11, p12, p22, d, g, noise, predict, observe):
     Parameters
     ----------
     mean : ndarray, shape (2·c,)
-        [s, σ] of each channel in turn (N·m, N·m/rad), updated in place.
-    e : ndarray, shape (c,)
-        Written when ``observe``: each channel's innovation (N·m).
+        [s, σ] of each channel in turn (N·m, N·m/rad), updated in place; ``e`` (c,) is written
+        with each channel's innovation when ``observe``.
     chans : ndarray, shape (m, c)
         The measurement channels, any layout; this step's are row ``i``.
     p11, p12, p22 : float
-        The covariance of [s, σ] before the step.
-    d, g : float, rad (m)
-        The angle's increment and the spring's deflection at this step.
+        The covariance of [s, σ] before the step; ``d``, ``g`` the angle's increment and the
+        spring's deflection at this step (rad, m).
     noise : tuple of 5 floats
         (R, Q_s·Δt, Q_σ·Δt, Q_c·Δt) of :meth:`~limbstiff.statespace.noise.NoiseLevels.per_step`,
         then the stiffness's fading memory 1/λ − 1 (λ = exp(−Δt/T), T the memory; 0 for none, as
@@ -114,39 +112,20 @@ def step(mean, e, chans, i, p11, p12, p22, d, g, noise, predict, observe):
 
 
 def _forward(d, g, chans, mean0, cov0, noise, restart, observed, what, moments, covs, innovations, variance, quad):
-    """The forward (causal) pass of the model over the channels: :func:`step` at every step, the
-    outputs chosen by the flags ``what``.
+    """The forward (causal) pass of the model: :func:`step` at every step over the channels
+    ``chans`` (m, c, any layout: numba compiles each), from the prior [s, σ] of each channel
+    ``mean0`` (2·c,) and covariance ``cov0`` (3-tuple). At a ``restart`` (bool (m,); empty: never)
+    the state restarts at the step's data with the prior's σ and covariance; where ``observed``
+    (bool (m,); empty: everywhere) is False the state is only predicted. ``d``, ``g`` and
+    ``noise`` as :func:`step`.
 
-    Parameters
-    ----------
-    d, g : ndarray, shape (m,)
-        The angle's increments and the spring's deflection (:func:`step`).
-    chans : ndarray, shape (m, c)
-        The measurement channels, any layout (numba compiles each).
-    mean0 : ndarray, shape (2·c,)
-        The prior [s, σ] of each channel at the first step; at a restart s is the step's data
-        and σ the prior's.
-    cov0 : tuple of 3 floats
-        The prior covariance, at the first step and at restarts.
-    noise : tuple of 5 floats
-        As :func:`step`.
-    restart, observed : ndarray of bool, shape (m,) or (0,)
-        Where the state restarts (independent blocks of data; empty: never) and where the
-        measurements are observed (empty: everywhere).
-    what : int
-        :data:`LOGLIK`, :data:`MOMENTS`, :data:`INNOVATIONS`, :data:`QUADRATIC`, combined with ``|``.
-    moments, covs : ndarray, shape (m, 2) and (m, 3)
-        Written with MOMENTS: channel 0's filtered [s, σ] and covariance (predicted where not observed).
-    innovations, variance : ndarray, shape (m, c) and (m,)
-        Written with INNOVATIONS at the observed steps: each channel's innovations and their variance S.
-    quad : ndarray, shape (c, c)
-        Added to with QUADRATIC: Σ e·eᵀ/S over the observed steps.
-
-    Returns
-    -------
-    float
-        With LOGLIK, channel 0's log-likelihood (prediction-error decomposition); with QUADRATIC,
-        Σ ln S; 0 otherwise.
+    The flags ``what`` (:data:`LOGLIK`, :data:`MOMENTS`, :data:`INNOVATIONS`, :data:`QUADRATIC`,
+    combined with ``|``) choose the outputs: with MOMENTS channel 0's filtered [s, σ] and
+    covariance are written to ``moments`` (m, 2) and ``covs`` (m, 3) (predicted where not
+    observed); with INNOVATIONS each channel's innovations and their variance S to
+    ``innovations`` (m, c) and ``variance`` (m,); with QUADRATIC Σ e·eᵀ/S is added to ``quad``
+    (c, c). Returns channel 0's log-likelihood with LOGLIK, Σ ln S with QUADRATIC (both over the
+    observed steps), 0 otherwise.
     """
     nc = chans.shape[1]
     mean = mean0.copy()
@@ -334,26 +313,17 @@ def kalman_channel_innovations(d, g, chans, slopes, r, qs, qk, qc, p11, p22, res
 
 
 def kalman_quadratic(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart):
-    """One forward pass of the model over several measurement channels at once.
+    """One forward pass of the model over several measurement channels at once, its likelihood
+    as a quadratic form in their weights.
 
     The covariance recursion does not depend on the data, so the innovations of every channel
     share their variance S[k]. For z = Σ_c w_c·chans[c] (for example w = (1, −m, −b) on
     f, ÿ, ẏ) the log-likelihood is −½·(n·ln 2π + Σ ln S + wᵀ·A·w) with A[c, c'] = Σ e_c·e_c'/S.
 
-    Parameters
-    ----------
-    d : (n,) increments of y
-    g : (n,) deflection of the spring at each step (:func:`limbstiff.statespace.steps.deflection`)
-    chans : (c, n) measurement channels
-    slopes : (c,) initial σ of each channel (its least-squares slope on y)
-    r, qs, qk, qc : noise variances per step
-    p11, p22 : initial variances of s and σ
-    restart : (n,) bool; where True the state restarts (independent blocks of data)
-
-    Returns
-    -------
-    sum_log_s : float
-    a : ndarray, shape (c, c)
+    ``d``, ``g`` (n,) are the angle's increments and the spring's deflection, ``chans`` (c, n) the
+    channels with ``slopes`` (c,) their initial σ (least-squares slopes on y), ``r, qs, qk, qc``
+    the noise variances per step, ``p11``, ``p22`` the initial variances of s and σ, ``restart``
+    (bool (n,)) where the state restarts (independent blocks of data). Returns Σ ln S and A (c, c).
     """
     per_step = np.empty((1, 4))
     per_step[0, 0] = r
