@@ -3,7 +3,8 @@
 With the coefficients β of channels 1… in z = c₀ − Σ β_j·c_j, the log-likelihood is a quadratic
 form in (1, −β), so its integral over β under a flat prior is exactly
 L(β̂) + (p/2)·ln 2π − ½·ln det A_pp, with L(β̂) the ordinary one-channel likelihood of z at the
-posterior mean — computed here by the other kernel (``kalman_loglik``), a separate code path.
+posterior mean — computed here by the forward pass's one-channel log-likelihood on z itself
+(``kalman_loglik``), not through the quadratic form.
 """
 
 from __future__ import annotations
