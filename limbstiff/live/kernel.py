@@ -83,7 +83,7 @@ def _kalman_step(st, kal, y, work, g, per_step, first):
             mean[2 * c] = work[0, c]
             mean[2 * c + 1] = 0.0
     noise = (per_step[0], per_step[1], per_step[2], per_step[3], per_step[4])
-    p11, p12, p22, sv = kernels.step(mean, work[1], work, 0, st[kal + 6], st[kal + 7], st[kal + 8], y - st[kal + 9], g,
+    p11, p12, p22, sv = kernels.step(mean, work, 1, work, 0, st[kal + 6], st[kal + 7], st[kal + 8], y - st[kal + 9], g,
                                      noise, not first, True)
     st[kal + 6], st[kal + 7], st[kal + 8], st[kal + 9] = p11, p12, p22, y
     return sv

@@ -60,7 +60,7 @@ def _update(p11, p12, p22, r):
 LOGLIK, MOMENTS, INNOVATIONS, QUADRATIC = 1, 2, 4, 8
 
 
-def step(mean, e, chans, i, p11, p12, p22, d, g, noise, predict, observe):
+def step(mean, e, row, chans, i, p11, p12, p22, d, g, noise, predict, observe):
     """One step of the model on every measurement channel: the prediction over the increment
     ``d``, then the update with row ``i`` of the channels. The covariance does not depend on the
     data, so the channels share it and its gains.
@@ -68,8 +68,8 @@ def step(mean, e, chans, i, p11, p12, p22, d, g, noise, predict, observe):
     Parameters
     ----------
     mean : ndarray, shape (2·c,)
-        [s, σ] of each channel in turn (N·m, N·m/rad), updated in place; ``e`` (c,) is written
-        with each channel's innovation when ``observe``.
+        [s, σ] of each channel in turn (N·m, N·m/rad), updated in place; row ``row`` of ``e``
+        (k, c) is written with each channel's innovation when ``observe``.
     chans : ndarray, shape (m, c)
         The measurement channels, any layout; this step's are row ``i``.
     p11, p12, p22 : float
@@ -91,7 +91,7 @@ def step(mean, e, chans, i, p11, p12, p22, d, g, noise, predict, observe):
     variance : float
         The innovations' variance S, (N·m)² (0 when not observed).
     """
-    nc = e.shape[0]
+    nc = e.shape[1]
     if predict:
         for c in range(nc):
             mean[2 * c] += mean[2 * c + 1] * d
@@ -105,7 +105,7 @@ def step(mean, e, chans, i, p11, p12, p22, d, g, noise, predict, observe):
         sv, g1, g2, p11, p12, p22 = _update(p11, p12, p22, noise[0])
         for c in range(nc):
             ec = chans[i, c] - mean[2 * c]
-            e[c] = ec
+            e[row, c] = ec
             mean[2 * c] += g1 * ec
             mean[2 * c + 1] += g2 * ec
     return p11, p12, p22, sv
@@ -129,7 +129,7 @@ def _forward(d, g, chans, mean0, cov0, noise, restart, observed, what, moments, 
     """
     nc = chans.shape[1]
     mean = mean0.copy()
-    e = np.empty(nc)
+    e = innovations if what & INNOVATIONS else np.empty((1, nc))     # the step writes row `row`
     p11, p12, p22 = cov0
     restarts = restart.shape[0] > 0
     masked = observed.shape[0] > 0
@@ -144,7 +144,8 @@ def _forward(d, g, chans, mean0, cov0, noise, restart, observed, what, moments, 
             p11, p12, p22 = cov0
             predict = False
         observe = not masked or observed[i]
-        p11, p12, p22, sv = step(mean, e, chans, i, p11, p12, p22, d[i], g[i], noise, predict, observe)
+        row = i if what & INNOVATIONS else 0
+        p11, p12, p22, sv = step(mean, e, row, chans, i, p11, p12, p22, d[i], g[i], noise, predict, observe)
         if what & MOMENTS:
             moments[i, 0] = mean[0]
             moments[i, 1] = mean[1]
@@ -154,16 +155,14 @@ def _forward(d, g, chans, mean0, cov0, noise, restart, observed, what, moments, 
         if not observe:
             continue
         if what & LOGLIK:
-            value -= 0.5 * (log2pi + math.log(sv) + e[0] * e[0] / sv)
+            value -= 0.5 * (log2pi + math.log(sv) + e[row, 0] * e[row, 0] / sv)
         if what & INNOVATIONS:
-            for c in range(nc):
-                innovations[i, c] = e[c]
             variance[i] = sv
         if what & QUADRATIC:
             w = 1.0 / sv
             for c in range(nc):
                 for c2 in range(nc):
-                    quad[c, c2] += e[c] * e[c2] * w
+                    quad[c, c2] += e[row, c] * e[row, c2] * w
             value += math.log(sv)
     return value
 
