@@ -74,6 +74,25 @@ def test_the_chain_is_the_offline_filter_on_causally_filtered_signals():
     assert np.all(half >= 1.6448 * np.sqrt(variance) * (1 - 1e-12))
 
 
+def test_the_live_step_is_the_offline_filter_to_the_bit():
+    """The chain's model step is the offline filter's (kernels.step): with m = b = 0 its z is the
+    torque channel itself, so on the chain's own steps (z, y and the deflection it outputs) the
+    innovations, their variance and the filtered stiffness are the offline pass's, bit for bit."""
+    trial = multisine_trial(duration=4.0, fs=FS)
+    model = _model(inertia=0.0, damping=0.0)
+    rows = LiveEstimator(model).push(trial.angle, trial.torque).rows
+    at = np.flatnonzero(np.isfinite(rows[:, 5]))
+    z, y, g = rows[at, 7], rows[at, 8], rows[at, 9]
+    args = (np.diff(y, prepend=y[0]), g, z, *model.noise.per_step(model.decimation / FS), float(z[0]), 0.0,
+            model.initial_cov[0], 0.0, model.initial_cov[1])
+    e, var = kernels.kalman_innovations(*args)
+    np.testing.assert_array_equal(rows[at, 5], e)
+    np.testing.assert_array_equal(rows[at, 6], var)
+    mean, cov, _ = kernels.kalman_filter(*args[:3], np.ones(len(z), dtype=bool), *args[3:], False)
+    np.testing.assert_array_equal(rows[at, 0], at_steps(mean[:, 1]))
+    np.testing.assert_array_equal(rows[at, 4], at_steps(cov[:, 2]))
+
+
 def test_chunks_and_a_pickled_handover_give_the_same_estimate_to_the_bit():
     trial = multisine_trial(duration=5.0, fs=FS)
     model = _model(memory_s=0.5, typical_variance=0.01)

@@ -3,7 +3,8 @@
 With the coefficients β of channels 1… in z = c₀ − Σ β_j·c_j, the log-likelihood is a quadratic
 form in (1, −β), so its integral over β under a flat prior is exactly
 L(β̂) + (p/2)·ln 2π − ½·ln det A_pp, with L(β̂) the ordinary one-channel likelihood of z at the
-posterior mean — computed here by the other kernel (``kalman_loglik``), a separate code path.
+posterior mean — computed here by the forward pass's one-channel log-likelihood on z itself
+(``kalman_loglik``), not through the quadratic form.
 """
 
 from __future__ import annotations
@@ -88,3 +89,51 @@ def test_initial_slopes_are_linear_in_the_channels():
     y, c = rng.normal(size=200), rng.normal(size=(2, 200))
     np.testing.assert_allclose(initial_slopes(y, c[0] - 0.4 * c[1]),
                                initial_slopes(y, c[0]) - 0.4 * initial_slopes(y, c[1]), atol=1e-12)
+
+
+def test_the_variants_of_the_one_forward_pass_agree_to_the_bit():
+    """kernels._forward's outputs chosen by flags: the log-likelihood, the filtered moments, the
+    innovations (one channel, several, either layout) and the quadratic form must be the same
+    numbers however they are asked for — each recomputed here from another variant's output in
+    the kernel's own order of operations, so that any difference is a fault, not rounding."""
+    import math
+
+    from limbstiff.statespace import kernels
+
+    steps = _steps(3, n=300)
+    d, g, chans, slopes = steps.increments, steps.deflection, steps.channels, steps.slopes
+    r, qs, qk, qc = NOISE.per_step(steps.step)
+    p11, _, p22 = steps.initial_cov
+    restart = np.zeros(300, dtype=bool)
+    restart[150] = True
+    e, var = kernels.kalman_channel_innovations(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart)
+    rows, var_rows = kernels.kalman_channel_innovations(d, g, np.ascontiguousarray(chans.T).T, slopes, r, qs, qk, qc,
+                                                        p11, p22, restart)
+    np.testing.assert_array_equal(rows, e)
+    np.testing.assert_array_equal(var_rows, var)
+    sum_log_s, a = kernels.kalman_quadratic(d, g, chans, slopes, r, qs, qk, qc, p11, p22, restart)
+    expected_a, expected_sum = np.zeros((3, 3)), 0.0
+    for k in range(300):
+        w = 1.0 / var[k]
+        expected_a += np.outer(e[:, k], e[:, k]) * w
+        expected_sum += math.log(var[k])
+    np.testing.assert_array_equal(a, expected_a)
+    assert sum_log_s == expected_sum
+    # one channel from a prior of its own: the innovations, the likelihood and the filter's moments
+    z = chans[0]
+    args = (d, g, z, r, qs, qk, qc, z[0] + 0.3, slopes[0], p11, 0.1, p22)
+    e1, var1 = kernels.kalman_innovations(*args)
+    loglik = 0.0
+    for k in range(300):
+        loglik -= 0.5 * (math.log(2.0 * math.pi) + math.log(var1[k]) + e1[k] * e1[k] / var1[k])
+    assert kernels.kalman_loglik(*args) == loglik
+    mean, cov, filtered = kernels.kalman_filter(*args[:3], np.ones(300, dtype=bool), *args[3:], True)
+    assert filtered == loglik
+    # the filter's mean moves by its gain times the innovation: e = z − (s + σ·d) before the update
+    np.testing.assert_array_equal(e1[1:], z[1:] - (mean[:-1, 0] + mean[:-1, 1] * d[1:]))
+    # one channel from its first value, no restart: the multi-channel pass's channel 0
+    e0, var0 = kernels.kalman_innovations(d, g, z, r, qs, qk, qc, z[0], slopes[0], p11, 0.0, p22)
+    e_all, var_all = kernels.kalman_channel_innovations(d, g, chans, slopes, r, qs, qk, qc, p11, p22,
+                                                        np.zeros(300, dtype=bool))
+    np.testing.assert_array_equal(e0, e_all[0])
+    np.testing.assert_array_equal(var0, var_all)

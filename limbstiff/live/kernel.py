@@ -5,11 +5,11 @@ Per input sample: the angle y and torque f through the same causal Butterworth l
 filtered samples kept, ẏ and ÿ of the middle one by the eighth-order central differences of the
 offline chain (:func:`limbstiff.signals.central_derivatives`) — so every channel is taken four
 samples back, alike — and, every ``decimation``-th of those, one step of the state-space model of
-:mod:`limbstiff.statespace` (its covariance step :func:`~limbstiff.statespace.kernels._predict`,
-:func:`~limbstiff.statespace.kernels._update`, written once) on three measurement channels f, ÿ
-and ẏ through the same gains. The filter's mean is linear in the channel, so the stiffness for
-any (m, b) is σ̂_f − m·σ̂_ÿ − b·σ̂_ẏ, and its derivatives with respect to m and b are the two
-other channels' courses (the band carries m and b's covariance through them).
+:mod:`limbstiff.statespace` (the offline filter's own :func:`~limbstiff.statespace.kernels.step`,
+with the stiffness's fading memory) on three measurement channels f, ÿ and ẏ through the same
+gains. The filter's mean is linear in the channel, so the stiffness for any (m, b) is
+σ̂_f − m·σ̂_ÿ − b·σ̂_ẏ, and its derivatives with respect to m and b are the two other channels'
+courses (the band carries m and b's covariance through them).
 
 The state lives in three arrays the caller keeps between chunks (:class:`limbstiff.live.estimator.LiveEstimator`):
 
@@ -74,33 +74,19 @@ def _stencil(st, ring, pos, kernel):
     return acc
 
 
-def _kalman_step(st, kal, y, zf, za, zv, g, per_step, first):
-    """One model step on the three channels; returns the innovations and their variance S."""
-    r, qs, qk, qc = per_step[0], per_step[1], per_step[2], per_step[3]
-    p11, p12, p22 = st[kal + 6], st[kal + 7], st[kal + 8]
+def _kalman_step(st, kal, y, work, g, per_step, first):
+    """One model step (:func:`~limbstiff.statespace.kernels.step`) on the three channels of
+    ``work``'s row 0 (f, ÿ, ẏ), their innovations written to its row 1; returns their variance S."""
+    mean = st[kal:kal + 6]
     if first:
-        st[kal + 0], st[kal + 1], st[kal + 2] = zf, 0.0, za
-        st[kal + 3], st[kal + 4], st[kal + 5] = 0.0, zv, 0.0
-    else:
-        d = y - st[kal + 9]
         for c in range(3):
-            st[kal + 2 * c] += st[kal + 2 * c + 1] * d
-        p11, p12, p22 = kernels._predict(p11, p12, p22, d, g, qs, qk, qc)
-        # fading memory of the stiffness (per_step[4] = 1/λ − 1): P ← D·P·D, D = diag(1, 1/√λ)
-        p12 = p12 * math.sqrt(1.0 + per_step[4])
-        p22 = p22 * (1.0 + per_step[4])
-    sv, g1, g2, p11, p12, p22 = kernels._update(p11, p12, p22, r)
-    ef = zf - st[kal + 0]
-    ea = za - st[kal + 2]
-    ev = zv - st[kal + 4]
-    st[kal + 0] += g1 * ef
-    st[kal + 1] += g2 * ef
-    st[kal + 2] += g1 * ea
-    st[kal + 3] += g2 * ea
-    st[kal + 4] += g1 * ev
-    st[kal + 5] += g2 * ev
+            mean[2 * c] = work[0, c]
+            mean[2 * c + 1] = 0.0
+    noise = (per_step[0], per_step[1], per_step[2], per_step[3], per_step[4])
+    p11, p12, p22, sv = kernels.step(mean, work, 1, work, 0, st[kal + 6], st[kal + 7], st[kal + 8], y - st[kal + 9], g,
+                                     noise, not first, True)
     st[kal + 6], st[kal + 7], st[kal + 8], st[kal + 9] = p11, p12, p22, y
-    return ef, ea, ev, sv
+    return sv
 
 
 def _combine(st, kal, mech, out, i):
@@ -114,7 +100,8 @@ def _combine(st, kal, mech, out, i):
     out[i, 4] = var
 
 
-def _model_step(fstate, istate, ring_y, ring_f, defl, kal, pos, first_d, second_d, per_step, mech, window, out, i):
+def _model_step(fstate, istate, ring_y, ring_f, defl, kal, pos, first_d, second_d, per_step, mech, window, work,
+                out, i):
     """One model step at the ring's middle sample: derivatives, deflection, the Kalman step, the
     half-step alignment, and row i's step columns."""
     m, b = mech[0], mech[1]
@@ -122,7 +109,9 @@ def _model_step(fstate, istate, ring_y, ring_f, defl, kal, pos, first_d, second_
     fc = fstate[ring_f + (pos + 4) % STENCIL]
     vc = _stencil(fstate, ring_y, pos, first_d)
     ac = _stencil(fstate, ring_y, pos, second_d)
-    # the deflection: the step's angle less the trailing average of the last `window` steps
+    # the deflection: the step's angle less the trailing average of the last `window` steps (the
+    # offline average is centred, two motion periods of future a causal chain does not have; the
+    # live noise levels are fitted on this deflection, limbstiff.live.identify)
     dp = istate[DEFL_POS]
     if istate[DEFL_COUNT] == window:
         fstate[kal + 14] -= fstate[defl + dp]
@@ -133,7 +122,9 @@ def _model_step(fstate, istate, ring_y, ring_f, defl, kal, pos, first_d, second_
     istate[DEFL_POS] = (dp + 1) % window
     g = yc - fstate[kal + 14] / istate[DEFL_COUNT]
     first = istate[STEPS] == 0
-    ef, ea, ev, sv = _kalman_step(fstate, kal, yc, fc, ac, vc, g, per_step, first)
+    work[0, 0], work[0, 1], work[0, 2] = fc, ac, vc
+    sv = _kalman_step(fstate, kal, yc, work, g, per_step, first)
+    ef, ea, ev = work[1, 0], work[1, 1], work[1, 2]
     for c in range(3):
         k_now = fstate[kal + 2 * c + 1]
         k_prev = k_now if first else fstate[kal + 10 + c]
@@ -181,6 +172,7 @@ def causal_chunk(y, f, sos, fstate, istate, first_d, second_d, per_step, mech, d
     defl = ring_f + STENCIL
     kal = defl + window
     n = y.shape[0]
+    work = np.empty((2, 3))
     for i in range(n):
         yf = _sosfilt_one(y[i], sos, fstate, 0)
         ff = _sosfilt_one(f[i], sos, fstate, 2 * sections)
@@ -195,7 +187,7 @@ def causal_chunk(y, f, sos, fstate, istate, first_d, second_d, per_step, mech, d
         if istate[SEEN] >= STENCIL:
             if istate[PHASE] == 0:
                 _model_step(fstate, istate, ring_y, ring_f, defl, kal, pos, first_d, second_d, per_step, mech,
-                            window, out, i)
+                            window, work, out, i)
             istate[PHASE] = (istate[PHASE] + 1) % decimation
         if istate[STEPS] == 0:
             for c in range(5):

@@ -21,12 +21,13 @@ Modules (one idea each):
   state placed back on the samples;
 - :mod:`.linear` — the linear coefficients: innovations, the marginal likelihood with any number
   of them integrated out, their sandwich covariance;
-- :mod:`.kernels` — the loops, compiled with numba.
+- :mod:`.kernels` — the loops, compiled with numba: one step of the model and one forward pass.
 
 A stiffness that is a smooth function of a cycle's phase or of a recorded variable,
 σ = Σ_j β_j·h_j(·) + walk, adds one column per basis function whose weight is a linear coefficient
 like m and b (:func:`.linear.marginal`; :mod:`limbstiff.scheduled`). A live estimate is the forward
-pass (:func:`.smoother.kalman_filter`), whose moments at a step use the data up to it only.
+pass's step (:func:`.kernels.step`, which :mod:`limbstiff.live.kernel` calls as the data arrive), whose
+moments at a step use the data up to it only.
 Pure numpy and scipy: no I/O. Below estimation, identification, checks, the corner scan and the
 diagnosis (docs/architecture.md, "Layering").
 """

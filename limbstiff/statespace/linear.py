@@ -13,7 +13,6 @@ noise is not white is the sandwich covariance (:func:`sandwich_covariance`). Pur
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,22 +78,15 @@ def integrate_out(sum_log_s: float, a: np.ndarray, n: int) -> Marginal:
 
     −½·(n·ln 2π + Σ ln S + q_min) + (p/2)·ln 2π − ½·ln det A_pp, q_min the form's minimum over
     the coefficients, reached at A_pp⁻¹·A_p0. Two coefficients (m and b) are solved in closed
-    form, as the sampler calls this thousands of times; more through a linear solve.
+    form (:func:`~limbstiff.statespace.kernels.marginal_two`), as the sampler calls this thousands
+    of times; more through a linear solve.
     """
     p = a.shape[0] - 1
-    log2pi = math.log(2.0 * math.pi)       # the closed form's, as the numba kernel it replaced computed it
     if p == 0:
         return Marginal(float(-0.5 * (n * np.log(2 * np.pi) + sum_log_s + a[0, 0])), np.zeros(0), np.zeros((0, 0)))
     if p == 2:
-        det = a[1, 1] * a[2, 2] - a[1, 2] * a[1, 2]
-        if not det > 0.0:
-            return Marginal(-np.inf, np.full(2, np.nan), np.full((2, 2), np.nan))
-        c11, c12, c22 = a[2, 2] / det, -a[1, 2] / det, a[1, 1] / det
-        m = c11 * a[0, 1] + c12 * a[0, 2]
-        b = c12 * a[0, 1] + c22 * a[0, 2]
-        q_min = a[0, 0] - (a[0, 1] * m + a[0, 2] * b)
-        loglik = -0.5 * (n * log2pi + sum_log_s + q_min) + log2pi - 0.5 * math.log(det)
-        return Marginal(float(loglik), np.array([m, b]), np.array([[c11, c12], [c12, c22]]))
+        loglik, mean, cov = kernels.marginal_two(np.array([sum_log_s]), np.ascontiguousarray(a)[None], n)
+        return Marginal(float(loglik[0]), mean[0], cov[0])
     app, ap0 = a[1:, 1:], a[1:, 0]
     sign, logdet = np.linalg.slogdet(app)
     if sign <= 0:
@@ -112,7 +104,8 @@ def marginal(steps: ModelSteps, noise: NoiseLevels) -> Marginal:
         # the form from the innovations by one matrix product: the kernel's loop over channel
         # pairs grows as c² per step (a curve's weights make c ~ 20)
         args = _pass_args(steps, noise)
-        e, var = kernels.kalman_row_innovations(args[0], args[1], np.ascontiguousarray(args[2].T), *args[3:])
+        rows, var = kernels.kalman_channel_innovations(args[0], args[1], np.ascontiguousarray(args[2].T).T, *args[3:])
+        e = rows.T
         return integrate_out(float(np.sum(np.log(var))), (e.T / var) @ e, steps.channels.shape[1])
     sum_log_s, a = kernels.kalman_quadratic(*_pass_args(steps, noise))
     return integrate_out(sum_log_s, a, steps.channels.shape[1])

@@ -76,7 +76,7 @@ def kalman_filter(increments: np.ndarray, measured: np.ndarray, noise: NoiseLeve
     Arguments as :func:`kalman_smoother`. The initial mean and covariance are the state's prior
     at the first step, which is observed without a prediction; to continue a record in pieces,
     the next piece's prior is the last filtered moments carried one step ahead (the prediction
-    of :func:`~limbstiff.statespace.kernels._predict` with the increment between the pieces).
+    of :func:`~limbstiff.statespace.kernels.step` with the increment between the pieces).
 
     Returns
     -------
