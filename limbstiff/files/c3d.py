@@ -24,7 +24,8 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import READ_FIELDS, ColumnSpec, check_unit, in_si, joint_kind, schedule_unit
+from .column_units import check_unit, in_si, joint_kind, schedule_unit
+from .columns import READ_FIELDS, ColumnSpec
 from ..units import FIELD_DIMENSIONS, UNITS, free_unit_clash
 from .validate import checked_trial
 

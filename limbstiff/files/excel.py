@@ -23,7 +23,8 @@ import numpy as np
 from ..errors import TrialError
 from ..trial import Trial
 from ..units import UNITS
-from .columns import READ_FIELDS, ColumnSpec, in_si, joint_kind, resolve_columns, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit
+from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from .dialect import is_number, looks_like, shown, unit_cell
 from .validate import checked_trial
 

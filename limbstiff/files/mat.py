@@ -29,7 +29,8 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import READ_FIELDS, ColumnSpec, in_si, joint_kind, resolve_columns, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit
+from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from ..units import parse_standard_header, split_header
 from .validate import checked_trial
 

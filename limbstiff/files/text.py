@@ -27,7 +27,8 @@ import pandas as pd
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import READ_FIELDS, ColumnSpec, in_si, joint_kind, resolve_columns, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit
+from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from .dialect import DECIMAL_COMMA, SNIFF_LINES, binary_kind, detect_layout, shown
 from .validate import checked_trial
 
