@@ -13,7 +13,8 @@ from typing import NamedTuple, Sequence
 from ..errors import TrialError
 from ..units import FIELDS, STANDARD_QUANTITIES, UNITS, canonical_unit, parse_standard_header, split_header, \
     unit_in_header
-from .column_units import agree, check_field_unit, check_unit, in_si  # noqa: F401 — in_si: live.run imports it from here
+# in_si is imported from here by live.run
+from .column_units import agree, check_field_unit, check_unit, in_si  # noqa: F401
 
 _LABELS = {"time": "time", "angle": "angle/position", "torque": "torque/force",
            "elastic_torque": "elastic torque/force", "stiffness_true": "reference stiffness",
