@@ -70,38 +70,13 @@ def protocol_from_dict(raw: Mapping[str, Any], *, source: str = "<protocol>") ->
             kwargs[key] = _typed(source, key, raw[key], str)
     for section, keys in _SECTIONS.items():
         table = _table(source, section, raw.get(section, {}))
-        unknown = set(table) - set(keys)
-        if unknown:
-            raise ProtocolError(source, f"unknown key(s) in [{section}]: {', '.join(sorted(unknown))}")
+        _known(source, section, table, keys)
         for key, value in table.items():
             kwargs[keys[key]] = None if (value == "auto" and keys[key] in _AUTO) else value
-    columns = {}
-    for quantity, spec in _table(source, "columns", raw.get("columns", {})).items():
-        if quantity not in QUANTITIES:
-            raise ProtocolError(source, f"unknown quantity '{quantity}' in [columns] "
-                                        f"(one of {', '.join(QUANTITIES)})")
-        spec = _table(source, f"columns.{quantity}", spec)
-        unknown = set(spec) - {"header", "unit", "scale", "component"}
-        if unknown:
-            raise ProtocolError(source, f"unknown key(s) in [columns.{quantity}]: {', '.join(sorted(unknown))}")
-        component = _typed(source, "component", spec.get("component"), str)
-        if component is not None and component.lower() not in ("x", "y", "z"):
-            raise ProtocolError(source, f"'component' of [columns.{quantity}] must be \"x\", \"y\" or \"z\" "
-                                        f"(a C3D point channel's coordinate), not {component!r}")
-        columns[quantity] = Column(header=_typed(source, "header", spec.get("header"), str),
-                                   unit=_typed(source, "unit", spec.get("unit"), str),
-                                   scale=float(_typed(source, "scale", spec.get("scale", 1.0), (int, float))),
-                                   component=None if component is None else component.lower())
-    kwargs["columns"] = columns
-    priors = _table(source, "priors", raw.get("priors", {}))
-    for name, spec in priors.items():
-        if name not in ("inertia", "damping"):
-            raise ProtocolError(source, f"unknown prior '{name}' (inertia or damping)")
-        spec = _table(source, f"priors.{name}", spec)
-        unknown = set(spec) - {f.name for f in fields(Prior)}
-        if unknown:
-            raise ProtocolError(source, f"unknown key(s) in [priors.{name}]: {', '.join(sorted(unknown))}")
-        kwargs[f"{name}_prior"] = Prior(**spec)
+    kwargs["columns"] = {quantity: _column(source, quantity, spec)
+                         for quantity, spec in _table(source, "columns", raw.get("columns", {})).items()}
+    for name, spec in _table(source, "priors", raw.get("priors", {})).items():
+        kwargs[f"{name}_prior"] = _prior(source, name, spec)
     if "cycles" in raw:
         kwargs["cycles"] = _cycles(source, _table(source, "cycles", raw["cycles"]))
     try:
@@ -112,13 +87,43 @@ def protocol_from_dict(raw: Mapping[str, Any], *, source: str = "<protocol>") ->
         raise ProtocolError(source, f"invalid value ({exc})") from None
 
 
+def _column(source, quantity: str, spec) -> Column:
+    """The ``[columns.<quantity>]`` table as :class:`Column` (its values checked by the Protocol)."""
+    if quantity not in QUANTITIES:
+        raise ProtocolError(source, f"unknown quantity '{quantity}' in [columns] "
+                                    f"(one of {', '.join(QUANTITIES)})")
+    spec = _table(source, f"columns.{quantity}", spec)
+    _known(source, f"columns.{quantity}", spec, ("header", "unit", "scale", "component"))
+    component = _typed(source, "component", spec.get("component"), str)
+    if component is not None and component.lower() not in ("x", "y", "z"):
+        raise ProtocolError(source, f"'component' of [columns.{quantity}] must be \"x\", \"y\" or \"z\" "
+                                    f"(a C3D point channel's coordinate), not {component!r}")
+    return Column(header=_typed(source, "header", spec.get("header"), str),
+                  unit=_typed(source, "unit", spec.get("unit"), str),
+                  scale=float(_typed(source, "scale", spec.get("scale", 1.0), (int, float))),
+                  component=None if component is None else component.lower())
+
+
+def _prior(source, name: str, spec) -> Prior:
+    """The ``[priors.<name>]`` table (``inertia`` or ``damping``) as :class:`Prior`."""
+    if name not in ("inertia", "damping"):
+        raise ProtocolError(source, f"unknown prior '{name}' (inertia or damping)")
+    spec = _table(source, f"priors.{name}", spec)
+    _known(source, f"priors.{name}", spec, [f.name for f in fields(Prior)])
+    return Prior(**spec)
+
+
 def _cycles(source, table: Mapping[str, Any]) -> Cycles:
-    """The ``[cycles]`` section as :class:`Cycles` (checked by :func:`_check_cycles`)."""
-    unknown = set(table) - {f.name for f in fields(Cycles)}
-    if unknown:
-        raise ProtocolError(source, f"unknown key(s) in [cycles]: {', '.join(sorted(unknown))} "
-                                    "(period_s, start_s, marker)")
+    """The ``[cycles]`` section as :class:`Cycles` (checked by the Protocol)."""
+    _known(source, "cycles", table, [f.name for f in fields(Cycles)], hint=" (period_s, start_s, marker)")
     return Cycles(period_s=table.get("period_s"), start_s=table.get("start_s", 0.0), marker=table.get("marker"))
+
+
+def _known(source, section: str, table: Mapping[str, Any], keys, hint: str = "") -> None:
+    """Error if the table ``[section]`` has a key not among ``keys``."""
+    unknown = set(table) - set(keys)
+    if unknown:
+        raise ProtocolError(source, f"unknown key(s) in [{section}]: {', '.join(sorted(unknown))}{hint}")
 
 
 def _table(source, name, value) -> Mapping[str, Any]:
