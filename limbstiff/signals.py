@@ -236,10 +236,8 @@ def paper_derivatives(x: np.ndarray, fs: float, order: int, *, prefilter_time_co
 
     Parameters
     ----------
-    x : ndarray, shape (n,)
-    fs : float, Hz
-    order : int
-        Highest derivative wanted.
+    x, fs, order
+        As for :func:`central_derivatives`.
     prefilter_time_constant : float, s
     dirty_derivative_time_constant : float, s
 

@@ -76,3 +76,31 @@ def test_unknown_unit_in_protocol_is_caught_at_load(tmp_path):
     f = _write(tmp_path, "[columns.angle]\nheader = 'pos'\nunit = 'grad'\n")
     with pytest.raises(ProtocolError, match="unknown unit 'grad' for angle"):
         load_protocol(f)
+
+
+def test_every_public_name_of_the_package_is_imported_from_limbstiff_protocol():
+    # the package's modules are split by idea; limbstiff.protocol stays the one import path
+    import ast
+
+    import limbstiff.protocol as protocol
+    from limbstiff.protocol import reading, settings
+
+    for module in (settings, reading):
+        tree = ast.parse(Path(module.__file__).read_text(encoding="utf-8"))
+        defined = [n.name for n in tree.body if isinstance(n, (ast.ClassDef, ast.FunctionDef))]
+        defined += [t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets if isinstance(t, ast.Name)]
+        public = [n for n in defined if not n.startswith("_")]
+        assert public, module.__name__
+        for name in public:
+            assert name in protocol.__all__ and getattr(protocol, name) is getattr(module, name), name
+
+
+def test_unknown_keys_are_named_in_every_table():
+    from limbstiff.protocol import protocol_from_dict
+
+    for raw, said in (({"format": {"delim": ","}}, r"\[format\]: delim"),
+                      ({"columns": {"angle": {"head": "x"}}}, r"\[columns.angle\]: head"),
+                      ({"priors": {"inertia": {"mean": 1.0}}}, r"\[priors.inertia\]: mean"),
+                      ({"cycles": {"period": 1.0}}, r"\[cycles\]: period \(period_s, start_s, marker\)")):
+        with pytest.raises(ProtocolError, match=said):
+            protocol_from_dict(raw)

@@ -12,6 +12,7 @@ and the atomic-write helpers every output goes through.
 | ``mat.py`` | MATLAB ``.mat`` files (v4–v7) |
 | ``excel.py`` | Excel ``.xlsx`` workbooks (one worksheet, read like text) |
 | ``columns.py`` | which column or variable fills which quantity, in which unit |
+| ``column_units.py`` | a column's unit checked, the joint kind the units make, the values in SI |
 | ``validate.py`` | the common checks: time, gaps, length, motion, resampling, SHA-256 |
 | ``units.py`` | the unit table and standard ``<quantity>_<unit>`` names |
 | ``csv_writer.py`` | :func:`~.csv_writer.write_csv`: the one CSV writer every CSV goes through |

@@ -109,7 +109,7 @@ def atomic_write_text(path: str | os.PathLike, text: str, encoding: str = "utf-8
     Parameters
     ----------
     path : str or path-like
-        Destination; its parent directories are created.
+        As for :func:`atomic_write_bytes`.
     text : str
         The whole content.
     encoding : str

@@ -24,7 +24,8 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import READ_FIELDS, ColumnSpec, check_unit, in_si, joint_kind, schedule_unit
+from .column_units import check_unit, in_si, joint_kind, schedule_unit
+from .columns import READ_FIELDS, ColumnSpec
 from ..units import FIELD_DIMENSIONS, UNITS, free_unit_clash
 from .validate import checked_trial
 
@@ -60,6 +61,32 @@ def read_c3d(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
         import ezc3d
     except ImportError:
         raise TrialError(where, f"reading C3D files needs the optional extra: {INSTALL_HINT}") from None
+    columns = _mapped_columns(where, protocol)
+    try:
+        c3d = ezc3d.c3d(str(path))
+    except Exception as exc:  # noqa: BLE001 - ezc3d raises plain RuntimeErrors on bad files
+        raise TrialError(where, f"not a readable C3D file ({' '.join(str(exc).split())})") from None
+    channels = {field: _channel(where, c3d, column, free=field == "schedule")
+                for field, column in columns.items() if field != "time"}
+    kind = _one_kind(where, channels)
+    rate = float(c3d["header"]["analogs" if kind == "analog" else "points"]["frame_rate"])
+    first = int(c3d["header"]["points"]["first_frame"])
+    values: dict[str, np.ndarray | None] = dict.fromkeys(READ_FIELDS)
+    values["time"] = _time(where, c3d, channels, columns, kind=kind, rate=rate, first=first)
+    specs = {}
+    for k, (field, (_, data, unit)) in enumerate(channels.items()):
+        specs[field] = _spec(where, field, columns[field], k, unit)
+        values[field] = in_si(data, specs[field])
+    joint = joint_kind(where, specs, noun="channel")
+    metadata = _metadata(c3d, columns, kind=kind, rate=rate, first=first)
+    return checked_trial(path, raw, values, kind=joint,
+                         protocol=protocol, name=name, metadata=metadata, warnings=[],
+                         locate=lambda k: f"{kind} frame {k + 1}", schedule_unit=schedule_unit(specs))
+
+
+def _mapped_columns(where: str, protocol) -> dict:
+    """The protocol's columns that name a channel; an error when the angle or a torque is not
+    among them, or when the protocol asks for a cycle marker (not read from C3D files)."""
     columns = {} if protocol is None else {f: c for f, c in protocol.columns.items() if c.header}
     if getattr(getattr(protocol, "cycles", None), "marker", None) is not None:
         raise TrialError(where, "a cycle marker ([cycles] marker) is not read from C3D files: give the cycles' "
@@ -67,45 +94,43 @@ def read_c3d(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
     if "angle" not in columns or not ({"torque", "elastic_torque"} & set(columns)):
         raise TrialError(where, "a C3D file is read through a protocol whose [columns] name the angle and torque "
                                 "channels, e.g. angle = { header = \"LAnkleAngles\", component = \"x\" }")
-    try:
-        c3d = ezc3d.c3d(str(path))
-    except Exception as exc:  # noqa: BLE001 - ezc3d raises plain RuntimeErrors on bad files
-        raise TrialError(where, f"not a readable C3D file ({' '.join(str(exc).split())})") from None
-    channels = {field: _channel(where, c3d, column, free=field == "schedule")
-                for field, column in columns.items() if field != "time"}
+    return columns
+
+
+def _one_kind(where: str, channels: dict) -> str:
+    """``analog`` or ``point``: the kind all mapped channels share (an error when they mix)."""
     kinds = {kind for kind, _, _ in channels.values()}
     if len(kinds) > 1:
         listing = ", ".join(f"{f}: {kind}" for f, (kind, _, _) in channels.items())
         raise TrialError(where, f"the protocol maps analog and point channels ({listing}); they have different "
                                 "rates: map all quantities to analog channels or all to point channels")
-    kind = kinds.pop()
-    rate = float(c3d["header"]["analogs" if kind == "analog" else "points"]["frame_rate"])
+    return kinds.pop()
+
+
+def _time(where: str, c3d, channels: dict, columns: dict, *, kind: str, rate: float, first: int) -> np.ndarray:
+    """The time base, s, shape (n,): from the file's first frame at the channels' ``rate`` (Hz); an
+    error when a channel has another number of frames or a gap (a non-finite value)."""
     n = next(iter(channels.values()))[1].size
-    first = int(c3d["header"]["points"]["first_frame"])
     start = first / float(c3d["header"]["points"]["frame_rate"])
-    values: dict[str, np.ndarray | None] = dict.fromkeys(READ_FIELDS)
-    values["time"] = start + np.arange(n) / rate
+    time = start + np.arange(n) / rate
     for field, (_, data, _) in channels.items():
         if data.size != n:
             raise TrialError(where, f"channel '{columns[field].header}' has {data.size} frames, the others {n}")
         bad = np.flatnonzero(~np.isfinite(data))
         if bad.size:
             raise TrialError(where, f"channel '{columns[field].header}' has no value at {kind} frame {bad[0] + 1} "
-                                    f"(t = {values['time'][bad[0]]:g} s; an occluded marker or a gap in the model "
+                                    f"(t = {time[bad[0]]:g} s; an occluded marker or a gap in the model "
                                     "output): fill or cut the gap before analysing")
-    specs = {}
-    for k, (field, (_, data, unit)) in enumerate(channels.items()):
-        if field == "schedule":
-            _schedule_unit(where, columns[field].header, unit)
-        else:
-            check_unit(where, "channel", columns[field].header, unit, field.replace("_", " "), FIELD_DIMENSIONS[field])
-        specs[field] = ColumnSpec(field, columns[field].header, k, unit, columns[field].scale)
-        values[field] = in_si(data, specs[field])
-    joint = joint_kind(where, specs, noun="channel")
-    metadata = _metadata(c3d, columns, kind=kind, rate=rate, first=first)
-    return checked_trial(path, raw, values, kind=joint,
-                         protocol=protocol, name=name, metadata=metadata, warnings=[],
-                         locate=lambda k: f"{kind} frame {k + 1}", schedule_unit=schedule_unit(specs))
+    return time
+
+
+def _spec(where: str, field: str, column, k: int, unit: str) -> ColumnSpec:
+    """The channel of ``field`` as a :class:`ColumnSpec`, its unit checked against the quantity's."""
+    if field == "schedule":
+        _schedule_unit(where, column.header, unit)
+    else:
+        check_unit(where, "channel", column.header, unit, field.replace("_", " "), FIELD_DIMENSIONS[field])
+    return ColumnSpec(field, column.header, k, unit, column.scale)
 
 
 def _schedule_unit(where: str, label: str, unit: str) -> None:

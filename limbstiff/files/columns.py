@@ -10,12 +10,11 @@ from __future__ import annotations
 
 from typing import NamedTuple, Sequence
 
-import numpy as np
-
 from ..errors import TrialError
-from ..units import (DIMENSION_KIND, FIELD_DIMENSIONS, FIELDS, STANDARD_QUANTITIES, UNITS,
-                    accepted_units, canonical_unit, free_unit_clash, parse_standard_header, same_unit,
-                    schedule_si, split_header, to_si, unit_in_header)
+from ..units import FIELDS, STANDARD_QUANTITIES, UNITS, canonical_unit, parse_standard_header, split_header, \
+    unit_in_header
+# in_si is imported from here by live.run
+from .column_units import agree, check_field_unit, check_unit, in_si  # noqa: F401
 
 _LABELS = {"time": "time", "angle": "angle/position", "torque": "torque/force",
            "elastic_torque": "elastic torque/force", "stiffness_true": "reference stiffness",
@@ -94,20 +93,41 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
         A missing column, an unknown or mismatched unit, two columns for one quantity.
     """
     mapped = dict(protocol.columns) if protocol is not None else {}
-    found = ", ".join(h for h in headers if h) or "none"
-    row = list(units or ())
-    row += [None] * (len(headers) - len(row))
-    file = _Listing(where, noun, list(headers), row,
-                    f"{'headers' if noun == 'column' else noun + 's'} found: {found}")
-    located = {field: _locate(file, field, spec.header) for field, spec in mapped.items()
-               if spec.header is not None}
+    file = _listing(where, headers, units, noun)
     marker = getattr(getattr(protocol, "cycles", None), "marker", None)
-    if marker is not None:
-        located["marker"] = _locate(file, "marker", marker)
+    located = _located(file, mapped, marker)
     # the schedule may be a column that is also a quantity (the angle itself: stiffness against
     # position), so it claims no header from the standard ones
     claimed = {headers[index] for field, index in located.items() if field != "schedule"}
-    standard = _standard_headers(where, headers, row, claimed, noun)
+    standard = _standard_headers(where, headers, file.row, claimed, noun)
+    columns = _quantity_columns(file, mapped, located, standard, lenient=bool(claimed))
+    if marker is not None:
+        columns["marker"] = _marker_column(file, located["marker"], columns)
+    _check_complete(file, columns, need_time)
+    return columns
+
+
+def _listing(where: str, headers: Sequence[str], units: Sequence[str | None] | None, noun: str) -> _Listing:
+    """The file's headers with its unit row padded to their length (None where absent)."""
+    found = ", ".join(h for h in headers if h) or "none"
+    row = list(units or ())
+    row += [None] * (len(headers) - len(row))
+    return _Listing(where, noun, list(headers), row, f"{'headers' if noun == 'column' else noun + 's'} found: {found}")
+
+
+def _located(file: _Listing, mapped: dict, marker: str | None) -> dict[str, int]:
+    """The index of every header the protocol names (``[columns]`` and ``[cycles] marker``), by field."""
+    located = {field: _locate(file, field, spec.header) for field, spec in mapped.items()
+               if spec.header is not None}
+    if marker is not None:
+        located["marker"] = _locate(file, "marker", marker)
+    return located
+
+
+def _quantity_columns(file: _Listing, mapped: dict, located: dict[str, int], standard: dict[int, tuple[str, str]],
+                      *, lenient: bool) -> dict[str, ColumnSpec]:
+    """The column of every quantity (the Trial's fields and the schedule): the protocol's where it
+    names one, else the one standard header holding it (none for a field the protocol settles)."""
     covered = _covered(mapped)
     columns: dict[str, ColumnSpec] = {}
     for field in (*FIELDS, "schedule"):
@@ -117,12 +137,9 @@ def resolve_columns(where: str, headers: Sequence[str], protocol=None, *,
             continue
         if field in covered:
             continue
-        column = _standard_column(file, field, spec, standard, lenient=bool(claimed))
+        column = _standard_column(file, field, spec, standard, lenient=lenient)
         if column is not None:
             columns[field] = column
-    if marker is not None:
-        columns["marker"] = _marker_column(file, located["marker"], columns)
-    _check_complete(file, columns, need_time)
     return columns
 
 
@@ -134,22 +151,6 @@ def _marker_column(file: _Listing, index: int, columns: dict[str, ColumnSpec]) -
         raise TrialError(file.where, f"{file.noun} '{header}' is given by the protocol for both "
                                      f"{other[0]} and {_LABELS['marker']}")
     return ColumnSpec("marker", header, index, "", 1.0)
-
-
-def in_si(values, column: ColumnSpec) -> np.ndarray:
-    """A column's values as its Trial field holds them: in SI units times the scale; the
-    scheduling variable in a free unit unconverted (times the scale); the marker raw."""
-    if column.field == "marker":
-        return np.asarray(values, dtype=float)
-    if column.field == "schedule":
-        return schedule_si(values, column.unit)[0] * column.scale
-    return to_si(values, column.unit) * column.scale
-
-
-def schedule_unit(columns: dict[str, ColumnSpec]) -> str | None:
-    """The unit of the trial's ``schedule`` once read (``rad``, ``N·m``, or the free unit), or None."""
-    column = columns.get("schedule")
-    return None if column is None else schedule_si(np.zeros(0), column.unit)[1]
 
 
 def _covered(mapped) -> set[str]:
@@ -231,14 +232,14 @@ def _mapped_column(file: _Listing, field: str, spec, index: int,
     where, noun, row, label = file.where, file.noun, file.row, _LABELS[field]
     header = file.headers[index]
     named = unit_in_header(header)
-    _agree(where, noun, header, ("the protocol", spec.unit), ("its name", named))
-    _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", row[index]))
-    _agree(where, noun, header, ("its name", named), ("the unit row", row[index]))
+    agree(where, noun, header, ("the protocol", spec.unit), ("its name", named))
+    agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", row[index]))
+    agree(where, noun, header, ("its name", named), ("the unit row", row[index]))
     unit = spec.unit or row[index] or named
     if unit is None:
         raise TrialError(where, f"{noun} '{header}' ({label}) has no unit in its name; "
                                 f"give one in the protocol ([columns.{field}] unit)")
-    _check_field_unit(where, noun, header, unit, field, label)
+    check_field_unit(where, noun, header, unit, field, label)
     other = [_LABELS[c.field] for c in columns.values() if c.header == header]
     if other and field != "schedule":
         raise TrialError(where, f"{noun} '{header}' is given by the protocol for both "
@@ -277,11 +278,11 @@ def _standard_column(file: _Listing, field: str, spec, standard: dict[int, tuple
     index, quantity, unit = candidates[0]
     header = file.headers[index]
     if spec is not None and spec.unit:
-        _agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", file.row[index]))
+        agree(where, noun, header, ("the protocol", spec.unit), ("the unit row", file.row[index]))
         unit = spec.unit
-        _check_field_unit(where, noun, header, unit, field, label)
+        check_field_unit(where, noun, header, unit, field, label)
     elif free:
-        _check_field_unit(where, noun, header, unit, field, label)
+        check_field_unit(where, noun, header, unit, field, label)
     else:
         check_unit(where, noun, header, unit, quantity.replace("_", " "),
                     STANDARD_QUANTITIES[quantity].dimensions, hint=True)
@@ -348,56 +349,7 @@ def _standard_headers(where, headers, row, claimed, noun) -> dict[int, tuple[str
         if parsed is None and row[index] and plain in STANDARD_QUANTITIES:
             parsed = (plain, row[index])
         elif parsed is not None:
-            _agree(where, noun, header, ("its name", parsed[1]), ("the unit row", row[index]))
+            agree(where, noun, header, ("its name", parsed[1]), ("the unit row", row[index]))
         if parsed is not None:
             out[index] = parsed
     return out
-
-
-def _agree(where, noun, header, first, second) -> None:
-    """Error if two statements of a column's unit (``(who, unit)``, unit may be None) differ."""
-    (who1, unit1), (who2, unit2) = first, second
-    if unit1 and unit2 and not same_unit(unit1, unit2):
-        raise TrialError(where, f"{noun} '{header}': {who1} says unit '{unit1}', "
-                                f"{who2} says '{unit2}'")
-
-
-def _check_field_unit(where, noun, header, unit, field, label) -> None:
-    """Error unless ``unit`` suits ``field``: a unit of its dimensions; for the scheduling
-    variable any unit of the table or a free one, though not one the table knows by another case."""
-    if field != "schedule":
-        check_unit(where, noun, header, unit, label, FIELD_DIMENSIONS[field])
-        return
-    clash = free_unit_clash(unit)
-    if clash:
-        raise TrialError(where, f"{noun} '{header}': unit '{unit}' of {label} is not in the unit table, "
-                                f"'{clash}' is: write '{clash}' (converted to SI), or a unit the table does "
-                                "not know (kept as given)")
-
-
-def check_unit(where, noun, header, unit, label, dimensions, hint=False) -> None:
-    """Error unless ``unit`` is a known unit of one of ``dimensions``."""
-    accepted = ", ".join(accepted_units(dimensions))
-    if unit not in UNITS:
-        raise TrialError(where, f"{noun} '{header}': unknown unit '{unit}' for {label} (accepted: {accepted})")
-    if UNITS[unit].dimension not in dimensions:
-        more = f"; a protocol can map this {noun} to another quantity" if hint else ""
-        raise TrialError(where, f"{noun} '{header}': unit '{unit}' is not a unit of {label} "
-                                f"(accepted: {accepted}{more})")
-
-
-def joint_kind(where: str, columns: dict[str, ColumnSpec], noun: str = "column") -> str:
-    """``rotational`` or ``translational``, from the units of the columns.
-
-    Raises
-    ------
-    TrialError
-        If rotational and translational units are mixed.
-    """
-    kinds = {c.header: DIMENSION_KIND[UNITS[c.unit].dimension] for c in columns.values() if c.field in FIELDS}
-    rotational = [h for h, k in kinds.items() if k == "rotational"]
-    translational = [h for h, k in kinds.items() if k == "translational"]
-    if rotational and translational:
-        raise TrialError(where, f"mixes rotational and translational {noun}s "
-                                f"('{rotational[0]}' and '{translational[0]}')")
-    return "rotational" if rotational else "translational"

@@ -23,35 +23,36 @@ import numpy as np
 from ..errors import TrialError
 from ..trial import Trial
 from ..units import UNITS
-from .columns import READ_FIELDS, ColumnSpec, in_si, joint_kind, resolve_columns, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit
+from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from .dialect import is_number, looks_like, shown, unit_cell
 from .validate import checked_trial
 
 
 def read_xlsx(path: Path, raw: bytes, protocol=None, *, name: str | None = None) -> Trial:
-    """Read one worksheet of an ``.xlsx`` workbook into a checked Trial.
+    """Read one worksheet of an ``.xlsx`` workbook into a checked Trial (the reader of
+    :class:`~limbstiff.files.read.FileType` for ``.xlsx``).
 
     Parameters
     ----------
     path : Path
-        The file, for messages and the default trial name.
     raw : bytes
         Its content (an Office Open XML workbook: a ZIP archive).
     protocol : Protocol or None
         Maps headers, units, scales and signs (``columns``); ``sheet`` names the worksheet
         (None: the first); ``unit_row`` replaces the detection; ``sample_period`` (s) resamples.
     name : str or None
-        Trial name; the file stem if None.
 
     Returns
     -------
     Trial
-        In SI units on a uniform time base.
+        The mapped columns; ``# key: value`` rows above the header as metadata.
 
     Raises
     ------
     TrialError
-        With a one-line message naming the file and the problem.
+        Not a workbook (or a damaged one), no such worksheet, no header or data rows, a
+        duplicated header, a missing unit row, or a cell that is not a number.
     """
     where = str(path)
     if not raw.startswith(b"PK\x03\x04"):

@@ -170,18 +170,26 @@ def publish(values: np.ndarray, *, fs: float, labels: Sequence[str], units: Sequ
     outlet = _outlet(pylsl, name=name, type=type, fs=fs, labels=labels, units=units,
                      source_id=source_id, metadata=metadata)
     try:
-        _wait_for_consumer(outlet, wait_consumer_s, stop)
-        if start_delay_s > 0:
-            stop.wait(start_delay_s)
-        t0 = pylsl.local_clock()
-        if on_start is not None:
-            on_start(t0, outlet.have_consumers())
+        t0 = _start(outlet, pylsl.local_clock, wait_consumer_s, start_delay_s, stop, on_start)
         sent = _push_all(outlet, values, keep, t0, fs, chunk_s, realtime, stop, pylsl.local_clock)
         if linger_s > 0:
             stop.wait(linger_s)
         return sent
     finally:
         del outlet
+
+
+def _start(outlet, clock: Callable[[], float], wait_consumer_s: float, start_delay_s: float,
+           stop: threading.Event, on_start: Callable[[float, bool], None] | None) -> float:
+    """Wait for a consumer (up to ``wait_consumer_s`` s), then ``start_delay_s`` s; the start time
+    ``t0`` (s, ``clock``), told to ``on_start`` with whether a consumer is connected."""
+    _wait_for_consumer(outlet, wait_consumer_s, stop)
+    if start_delay_s > 0:
+        stop.wait(start_delay_s)
+    t0 = clock()
+    if on_start is not None:
+        on_start(t0, outlet.have_consumers())
+    return t0
 
 
 def _wait_for_consumer(outlet, seconds: float, stop: threading.Event) -> None:

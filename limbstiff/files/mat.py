@@ -29,7 +29,8 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import READ_FIELDS, ColumnSpec, in_si, joint_kind, resolve_columns, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit
+from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from ..units import parse_standard_header, split_header
 from .validate import checked_trial
 
@@ -47,12 +48,12 @@ _SYNTAX = "name, name.field, name[:, k] (0-based) or name(:, k) (1-based)"
 
 
 def read_mat(path: Path, raw: bytes, protocol=None, *, name: str | None = None) -> Trial:
-    """Read one MATLAB trial file into a checked Trial.
+    """Read one MATLAB trial file into a checked Trial (the reader of
+    :class:`~limbstiff.files.read.FileType` for ``.mat``).
 
     Parameters
     ----------
     path : Path
-        The file, for messages and the default trial name.
     raw : bytes
         Its content (MAT v4, v6 or v7).
     protocol : Protocol or None
@@ -60,18 +61,17 @@ def read_mat(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
         scales and signs; ``sample_rate_hz`` (Hz) builds the time base of files without
         one; ``sample_period`` (s) resamples.
     name : str or None
-        Trial name; the file stem if None.
 
     Returns
     -------
     Trial
-        In SI units on a uniform time base.
+        The mapped variables; unused scalar numbers and strings as metadata.
 
     Raises
     ------
     TrialError
-        One line naming the file and the problem: v7.3, a corrupt file, a missing variable
-        or field, a wrong shape, non-numeric or non-finite values, no time and no rate.
+        v7.3, a corrupt file, a missing variable or field, a wrong shape, non-numeric or
+        non-finite values, no time and no rate.
     """
     where = str(path)
     variables = _load(where, raw)

@@ -59,8 +59,11 @@ class FileType:
     Parameters
     ----------
     read : callable (path, raw, protocol, name) -> Trial
-        The reader, given the file's path, its bytes, the protocol (or None) and the trial
-        name (None: the file stem); its module is imported only when such a file is read.
+        The reader, given the file's path (for messages and the default trial name), its
+        bytes, the protocol (or None) and the trial name (None: the file stem); it returns the
+        trial checked by :func:`limbstiff.files.validate.checked_trial` (SI units, a uniform
+        time base) or raises :class:`~limbstiff.errors.TrialError` with one line naming the
+        file and the problem. Its module is imported only when such a file is read.
     in_folders : bool
         Whether a batch searches folders for files of this type (files named explicitly are
         read whatever this says).

@@ -27,7 +27,8 @@ import pandas as pd
 
 from ..errors import TrialError
 from ..trial import Trial
-from .columns import READ_FIELDS, ColumnSpec, in_si, joint_kind, resolve_columns, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit
+from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from .dialect import DECIMAL_COMMA, SNIFF_LINES, binary_kind, detect_layout, shown
 from .validate import checked_trial
 
@@ -36,12 +37,12 @@ _PANDAS_LINE = re.compile(r"Expected (\d+) fields in line (\d+), saw (\d+)")
 
 
 def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None) -> Trial:
-    """Read one delimited text trial (``.csv``, ``.tsv``, ``.txt``) into a checked Trial.
+    """Read one delimited text trial (``.csv``, ``.tsv``, ``.txt``) into a checked Trial (the
+    reader of :class:`~limbstiff.files.read.FileType` for text).
 
     Parameters
     ----------
     path : Path
-        The file, for messages and the default trial name.
     raw : bytes
         Its content: UTF-8 text (BOM tolerated), ``# key: value`` metadata lines, one header
         row, an optional unit row, one row per sample.
@@ -49,17 +50,17 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
         Maps headers, units, scales and signs (``columns``); ``delimiter``, ``decimal`` and
         ``unit_row`` replace the detection; ``sample_period`` (s) resamples.
     name : str or None
-        Trial name; the file stem if None.
 
     Returns
     -------
     Trial
-        In SI units on a uniform time base.
+        The mapped columns; ``# key: value`` lines above the header as metadata.
 
     Raises
     ------
     TrialError
-        With a one-line message naming the file and the problem.
+        Not text in the encoding, no header or data rows, a single column, a duplicated
+        header, a missing unit row, a row of the wrong length, or a cell that is not a number.
     """
     where = str(path)
     text, notes = _decode(where, raw, getattr(protocol, "encoding", "auto"))

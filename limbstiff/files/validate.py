@@ -84,26 +84,35 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
     where = str(path)
     _check_time(where, values["time"], locate)
     values, gaps, notes = _trim_and_bridge(where, dict(values), protocol, locate)
-    angle = values["angle"]
-    label = "angle" if kind == "rotational" else "position"
-    distinct = np.unique(angle).size
-    if distinct == 1:
-        raise TrialError(where, f"no motion: {label} is constant ({angle[0]:g})")
-    if distinct < 3:
-        raise TrialError(where, f"no motion: {label} takes only {distinct} distinct values")
+    _check_motion(where, values["angle"], kind)
     values = _uniform(dict(values), notes)
     if protocol is not None and protocol.sample_period:
         values = _to_period(where, values, float(protocol.sample_period), notes)
-    grid = values["time"]
-    bridged = np.zeros(grid.size, dtype=bool)
-    for a, b in gaps:
-        bridged |= (grid > a) & (grid < b)
+    bridged = _bridged(values["time"], gaps)
     if values.get("schedule") is None:
         schedule_unit = None
     return Trial(name=name if name is not None else path.stem, kind=kind, metadata=dict(metadata or {}),
                  source=where, source_sha256=hashlib.sha256(raw).hexdigest(),
                  warnings=(*notes, *(warnings or ())), bridged=bridged if gaps else None,
                  schedule_unit=schedule_unit, **values)
+
+
+def _check_motion(where: str, angle: np.ndarray, kind: str) -> None:
+    """Error unless the angle (position) takes at least three distinct values."""
+    label = "angle" if kind == "rotational" else "position"
+    distinct = np.unique(angle).size
+    if distinct == 1:
+        raise TrialError(where, f"no motion: {label} is constant ({angle[0]:g})")
+    if distinct < 3:
+        raise TrialError(where, f"no motion: {label} takes only {distinct} distinct values")
+
+
+def _bridged(grid: np.ndarray, gaps) -> np.ndarray:
+    """Samples of the time ``grid`` (s, shape (n,)) strictly inside a bridged gap ``(a, b)``, s."""
+    bridged = np.zeros(grid.size, dtype=bool)
+    for a, b in gaps:
+        bridged |= (grid > a) & (grid < b)
+    return bridged
 
 
 def _check_time(where: str, time: np.ndarray, locate: Callable[[int], str]) -> None:

@@ -189,11 +189,7 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
     post = sample(problem, start=fit, inertia_prior=protocol.inertia_prior, damping_prior=protocol.damping_prior,
                   rng=rng, seed=seed, given=given)
     effect = NO_EFFECT if given is not None else _angle_error(filtered, fit, guess, decimation, rng)
-    applied, refused = _angle_error_use(post, effect)
-    post = _with_robust_spread(post, problem, fit, filtered.motion_hz,
-                               effect.in_residual if applied else np.zeros((2, 2)), rng)
-    post = (_with_angle_error(post, effect, rng) if applied
-            else dataclasses.replace(post, warnings=post.warnings + refused))
+    post = _corrected(post, effect, problem, fit, filtered.motion_hz, rng)
     out, draws = _mechanics_intervals(post, (m, b), protocol.ci_level, where, reflex_hint=not effects)
     if effects or basis:
         # the least squares the checks compare with: on the torque less the effects (and the curve)
@@ -205,6 +201,17 @@ def identify_mechanics(filtered: Filtered, protocol: Protocol, *, rng: np.random
                           noise_levels=post.noise_levels(), decimation=decimation, warnings=tuple(post.warnings),
                           angle_error=effect, effects=effect_fits(effects, post.amplitudes[:, :k], protocol.ci_level),
                           basis=effect_fits(basis, post.amplitudes[:, k:], protocol.ci_level))
+
+
+def _corrected(post: Posterior, effect: AngleErrorEffect, problem: MechanicsProblem, fit: MechanicsFit,
+               motion_hz: float, rng: np.random.Generator) -> Posterior:
+    """The posterior with the robust spread of m and b and, where it applies, the angle's error
+    ``effect`` (else a warning saying why not)."""
+    applied, refused = _angle_error_use(post, effect)
+    post = _with_robust_spread(post, problem, fit, motion_hz,
+                               effect.in_residual if applied else np.zeros((2, 2)), rng)
+    return (_with_angle_error(post, effect, rng) if applied
+            else dataclasses.replace(post, warnings=post.warnings + refused))
 
 
 def mechanics_problem(filtered: Filtered, *, given: tuple[float, float] | None = None,

@@ -4,8 +4,9 @@ The likelihood is the Kalman model's exact one (:mod:`limbstiff.statespace`). Pa
 θ = (m, b, ln R, ln Q_s, ln Q_σ, ln Q_c): m and b carry the protocol's priors (default: flat on
 m, b > 0) and are integrated exactly given the noise levels; the log noise levels are flat
 within :func:`limbstiff.statespace.noise.noise_bounds` and sampled by emcee. The chain runs in blocks until it is at least
-:data:`MIN_TAU_MULTIPLE` integrated autocorrelation times long (emcee's own estimator) or
-:data:`MAX_STEPS` is reached, in which case a warning says so.
+:data:`~limbstiff.mechanics.chain.MIN_TAU_MULTIPLE` integrated autocorrelation times long (emcee's own
+estimator) or :data:`~limbstiff.mechanics.chain.MAX_STEPS` is reached, in which case a warning says so
+(:mod:`limbstiff.mechanics.chain`).
 """
 
 from __future__ import annotations
@@ -16,31 +17,8 @@ import numpy as np
 
 from ..statespace.noise import NoiseLevels
 from ..protocol import Prior
-from .proposal import StudentProposal
+from .chain import MIN_TAU_MULTIPLE, N_DRAWS, N_WALKERS, burn_in, run_chain
 
-#: The chain must be this many autocorrelation times long (emcee's recommendation: ≥ 50).
-MIN_TAU_MULTIPLE = 50
-#: Steps of the adaptation that fits the independence proposal (differential evolution only,
-#: discarded), steps per block between convergence checks, and the most steps run after it.
-ADAPT_STEPS, BLOCK_STEPS, MAX_STEPS = 100, 50, 10_000
-#: Rounds of adaptation, each :data:`ADAPT_STEPS` long.
-ADAPT_ROUNDS = 3
-#: After this many steps with the independence proposal, a chain whose autocorrelation time is
-#: still above :data:`FALLBACK_TAU` steps (differential evolution alone: 15–35 on simulated trials,
-#: 40–100 on the real ankle ones) starts again without it.
-FALLBACK_STEPS, FALLBACK_TAU = 1000, 25.0
-#: Share of the chain's steps that draw from the independence proposal; the rest are differential
-#: evolution, which still moves the walkers where the proposal is poor.
-INDEPENDENCE_SHARE = 0.8
-#: Walkers: emcee's stretch move wants at least twice the dimension (4 noise levels).
-N_WALKERS = 8
-#: The walkers start at least this far inside the noise levels' bounds (natural-log units).
-START_MARGIN = 0.1
-#: Posterior draws kept for the bands and the draws file.
-N_DRAWS = 2000
-#: Steps the chain keeps after its burn-in, at least: every one of the :data:`N_DRAWS` draws from
-#: a state of its own (the walkers' states of these steps).
-KEPT_STEPS = -(-N_DRAWS // N_WALKERS)
 PARAMETERS = ("inertia", "damping", "log_measurement", "log_torque_walk", "log_stiffness_walk", "log_coupled_walk")
 
 
@@ -187,26 +165,6 @@ def prior_density(values: np.ndarray, prior: Prior) -> np.ndarray | None:
     return out
 
 
-def autocorr_time(chain: np.ndarray) -> np.ndarray:
-    """emcee's integrated autocorrelation time per parameter, in steps, however short the chain.
-
-    emcee raises :class:`emcee.autocorr.AutocorrError` on a chain shorter than 50 τ and carries
-    its estimate in ``.tau``; the length is judged by :func:`sample` (and said in its warnings),
-    so the estimate is taken either way.
-
-    Parameters
-    ----------
-    chain : ndarray, shape (n_steps, n_walkers, n_parameters)
-    """
-    from emcee.autocorr import AutocorrError, integrated_time
-    # a walker that has not moved yet has no autocorrelation (0/0): NaN, read as "not converged"
-    with np.errstate(invalid="ignore", divide="ignore"):
-        try:
-            return integrated_time(chain)
-        except AutocorrError as err:
-            return err.tau
-
-
 def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: np.random.Generator,
            seed: int, given: tuple[float, float] | None = None) -> Posterior:
     """Posterior of (m, b) and the noise levels: emcee on the noise levels, m and b exactly.
@@ -234,7 +192,7 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     -------
     Posterior
     """
-    sampler, steps, tau, share, discarded = _run_chain(problem, start, rng)
+    sampler, steps, tau, share, discarded = run_chain(problem, start, rng)
     warnings = []
     converged = bool(steps >= MIN_TAU_MULTIPLE * np.max(tau))
     if not converged:
@@ -245,7 +203,7 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
     burn = burn_in(steps, tau)
     flat = sampler.get_chain(discard=burn, flat=True)
     thin = max(1, len(flat) // N_DRAWS)
-    # the chain holds N_DRAWS states after its burn-in (:func:`_run_chain`); were it shorter, its
+    # the chain holds N_DRAWS states after its burn-in (:func:`run_chain`); were it shorter, its
     # states would be repeated, each with a draw of its own of the coefficients
     noise = np.resize(flat[::thin][-N_DRAWS:], (N_DRAWS, flat.shape[1]))
     draws, amplitudes, why = _with_mechanics(problem, noise, inertia_prior, damping_prior, rng, given)
@@ -261,86 +219,6 @@ def sample(problem, *, start, inertia_prior: Prior, damping_prior: Prior, rng: n
                            acceptance_fraction=acceptance, converged=converged, seed=seed,
                            adaptation_steps=discarded, independence_share=share)
     return Posterior(draws=draws, diagnostics=diag, warnings=tuple(warnings), amplitudes=amplitudes)
-
-
-def burn_in(steps: int, tau: np.ndarray) -> int:
-    """Steps discarded from the start of a chain of ``steps``: three autocorrelation times, at most
-    half the chain (half when the times are undefined)."""
-    return int(min(steps // 2, 3 * np.max(tau))) if np.all(np.isfinite(tau)) else steps // 2
-
-
-def _run_chain(problem, start, rng: np.random.Generator):
-    """emcee over the four log noise levels: :data:`ADAPT_ROUNDS` rounds of :data:`ADAPT_STEPS`
-    (differential evolution, then with the proposal fitted to the round before) to fit the
-    independence proposal (:mod:`limbstiff.mechanics.proposal`; discarded), then the chain with
-    both moves, in blocks of :data:`BLOCK_STEPS` until it is :data:`MIN_TAU_MULTIPLE`
-    autocorrelation times long with :data:`KEPT_STEPS` after its burn-in, or :data:`MAX_STEPS` are
-    run; with differential evolution alone when the proposal does not fit (:data:`FALLBACK_TAU`).
-
-    Returns
-    -------
-    sampler : emcee.EnsembleSampler
-        The chain after the adaptation.
-    steps : int
-    tau : ndarray, shape (4,)
-        Integrated autocorrelation times, steps.
-    independence_share : float
-        Share of the steps the independence proposal made (0 when the walkers collapsed or the
-        chain fell back to differential evolution).
-    discarded : int
-        Steps run before the chain: the adaptation's, and the proposal's when it fell back.
-    """
-    import emcee
-
-    lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
-
-    def log_prob(thetas):
-        out = np.full(len(thetas), -np.inf)
-        inside = np.all((thetas >= lo) & (thetas <= hi), axis=1)
-        if np.any(inside):
-            out[inside] = problem.conditionals(thetas[inside])[0]
-        return out
-
-    # inside the bounds: walkers clipped onto a bound together would coincide, and emcee's snooker
-    # move divides by their distance (NaN proposals)
-    centre = np.clip(start.noise.logs(),
-                     lo + START_MARGIN, hi - START_MARGIN)
-    p0 = np.clip(centre + 0.05 * rng.standard_normal((N_WALKERS, len(centre))), lo, hi)
-    # differential-evolution moves: integrated autocorrelation times of ~15 steps here against
-    # ~45 with the default stretch move (the stiffness walk's posterior often rests on a bound)
-    de = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
-    state, moves = p0, de
-    random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
-    # rounds: the first proposal, fitted to walkers still spreading out, is too narrow; each next
-    # one is fitted to the faster chain the one before gives
-    for _ in range(ADAPT_ROUNDS):
-        adapt = emcee.EnsembleSampler(N_WALKERS, len(centre), log_prob, vectorize=True, moves=moves)
-        adapt.random_state = random_state
-        state = adapt.run_mcmc(state, ADAPT_STEPS, progress=False)
-        random_state = adapt.random_state
-        proposal = StudentProposal.fit(adapt.get_chain(discard=ADAPT_STEPS // 2, flat=True), problem.bounds)
-        moves = de if proposal is None else (
-            [(emcee.moves.MHMove(proposal.propose), INDEPENDENCE_SHARE)]
-            + [(move, (1.0 - INDEPENDENCE_SHARE) * w) for move, w in de])
-    share, discarded = (0.0 if proposal is None else INDEPENDENCE_SHARE), ADAPT_ROUNDS * ADAPT_STEPS
-    sampler = emcee.EnsembleSampler(N_WALKERS, len(centre), log_prob, vectorize=True, moves=moves)
-    sampler.random_state = random_state
-    steps = 0
-    while True:
-        state = sampler.run_mcmc(state, BLOCK_STEPS, progress=False)
-        steps += BLOCK_STEPS
-        tau = autocorr_time(sampler.get_chain())
-        # NaN: a walker has not moved yet, and the chain is not long enough either
-        long_enough = steps >= MIN_TAU_MULTIPLE * np.max(tau) and steps - burn_in(steps, tau) >= KEPT_STEPS
-        if long_enough or steps >= MAX_STEPS:
-            return sampler, steps, tau, share, discarded
-        if share and steps == FALLBACK_STEPS and not np.max(tau) <= FALLBACK_TAU:
-            # the proposal does not fit this posterior (a plateau, an L-shaped ridge): the chain
-            # starts again from here with differential evolution alone
-            random_state, share, discarded = sampler.random_state, 0.0, discarded + steps
-            sampler = emcee.EnsembleSampler(N_WALKERS, len(centre), log_prob, vectorize=True, moves=de)
-            sampler.random_state = random_state
-            steps = 0
 
 
 def gaussian_draws(means: np.ndarray, covs: np.ndarray, which: np.ndarray, rng: np.random.Generator) -> np.ndarray:

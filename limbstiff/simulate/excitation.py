@@ -17,10 +17,11 @@ import numpy as np
 _MAX_DERIVATIVES = 3
 
 
-def _check_derivatives(derivatives: int) -> int:
+def _time_and_order(t: np.ndarray, derivatives: int) -> tuple[np.ndarray, int]:
+    """The time array as floats (s) and the number of derivatives asked for, checked (0–3)."""
     if not 0 <= int(derivatives) <= _MAX_DERIVATIVES:
         raise ValueError(f"derivatives must be 0..{_MAX_DERIVATIVES}, got {derivatives}")
-    return int(derivatives)
+    return np.asarray(t, dtype=float), int(derivatives)
 
 
 def _sin_of_phase(phase: np.ndarray, d1: np.ndarray, d2, d3, derivatives: int) -> np.ndarray:
@@ -55,9 +56,9 @@ def sinusoid(t: np.ndarray, amplitude: float, omega: float, phase: float = 0.0,
     Returns
     -------
     ndarray, shape (derivatives + 1, n)
+        Row k: the k-th time derivative of A sin(ωt + φ), in the unit of A per s^k.
     """
-    derivatives = _check_derivatives(derivatives)
-    t = np.asarray(t, dtype=float)
+    t, derivatives = _time_and_order(t, derivatives)
     phi = omega * t + phase
     zero = np.zeros_like(t)
     return amplitude * _sin_of_phase(phi, np.full_like(t, omega), zero, zero, derivatives)
@@ -87,9 +88,9 @@ def chirp(t: np.ndarray, f_start: float, f_end: float, sweep_time: float, *,
     Returns
     -------
     ndarray, shape (derivatives + 1, n)
+        Row k: the k-th time derivative of the unit chirp, 1/s^k.
     """
-    derivatives = _check_derivatives(derivatives)
-    t = np.asarray(t, dtype=float)
+    t, derivatives = _time_and_order(t, derivatives)
     if f_start <= 0 or f_end <= 0 or sweep_time <= 0:
         raise ValueError("chirp needs positive frequencies and sweep time")
     if method == "logarithmic" and not math.isclose(f_start, f_end):
@@ -134,9 +135,9 @@ def multisine(t: np.ndarray, frequencies: np.ndarray, amplitudes: np.ndarray, *,
     Returns
     -------
     ndarray, shape (derivatives + 1, n)
+        Row k: the k-th time derivative of the sum, in the unit of the amplitudes per s^k.
     """
-    derivatives = _check_derivatives(derivatives)
-    t = np.asarray(t, dtype=float)
+    t, derivatives = _time_and_order(t, derivatives)
     frequencies = np.atleast_1d(np.asarray(frequencies, dtype=float))
     amplitudes = np.broadcast_to(np.asarray(amplitudes, dtype=float), frequencies.shape)
     if phases is None:
@@ -260,11 +261,11 @@ def smoothed_steps(t: np.ndarray, switch_times: np.ndarray, levels: np.ndarray,
     Returns
     -------
     ndarray, shape (derivatives + 1, n)
+        Row k: the k-th time derivative of the smoothed steps, in the unit of the levels per s^k.
     """
     from scipy.special import ndtr
 
-    derivatives = _check_derivatives(derivatives)
-    t = np.asarray(t, dtype=float)
+    t, derivatives = _time_and_order(t, derivatives)
     switch_times = np.asarray(switch_times, dtype=float)
     jumps = np.diff(levels)
     out = np.zeros((derivatives + 1, t.size))

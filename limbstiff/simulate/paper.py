@@ -109,6 +109,14 @@ def _link(p, elastic, stiffness, control, *, quadratic: bool, torque_gate=None,
                  record_elastic=bool(_choice(p, "include_elastic", {0, 1})), metadata=meta)
 
 
+def _ramped(p, name: str):
+    """A link's control: ``p[name + "_start"]`` until ``ramp_start`` s, then linearly to
+    ``p[name + "_end"]`` at ``ramp_end`` s, held after."""
+    def control(t):
+        return saturated_ramp(t, p["ramp_start"], p["ramp_end"], p[f"{name}_start"], p[f"{name}_end"])
+    return control
+
+
 def build_vsa_hogan(p, rng) -> Setup:
     """Sec. II example (Fig. 3, actuator model (3)) and Sec. IV-B / Fig. 7a.
 
@@ -139,11 +147,7 @@ def build_vsa_hogan(p, rng) -> Setup:
     def stiffness(y, u, lib):
         return 2.0 * alpha * u - mgl * lib.cos(y)
 
-    def control(t):
-        return saturated_ramp(t, p["ramp_start"], p["ramp_end"], p["activation_start"],
-                              p["activation_end"])
-
-    return _link(p, elastic, stiffness, control, quadratic=True,
+    return _link(p, elastic, stiffness, _ramped(p, "activation"), quadratic=True,
                  notes={"actuator_model": "Hogan (3): tau = (tau_max - alpha*theta)*u",
                         "control": "activation u_b = u_t"})
 
@@ -169,11 +173,7 @@ def build_vsa_feldman(p, rng) -> Setup:
     def stiffness(y, lam, lib):
         return 2.0 * alpha * (math.pi - 2.0 * lam) - mgl * lib.cos(y)
 
-    def control(t):
-        return saturated_ramp(t, p["ramp_start"], p["ramp_end"], p["rest_angle_start"],
-                              p["rest_angle_end"])
-
-    return _link(p, elastic, stiffness, control, quadratic=True,
+    return _link(p, elastic, stiffness, _ramped(p, "rest_angle"), quadratic=True,
                  notes={"actuator_model": "Feldman (4): tau = -alpha*(theta - lambda)^2",
                         "control": "rest angle lambda_b = lambda_t, rad"})
 
