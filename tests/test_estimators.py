@@ -166,7 +166,7 @@ def test_compiled_kernels_equal_the_reference():
     ref = kernels.kalman_filter.py_func(*args[:3], obs, *args[3:], True)
     for x, y in zip(fast, ref):
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
-    assert kernels.kalman_loglik(*args) == pytest.approx(fast[2], rel=1e-12)
+    assert kernels.kalman_loglik(*args, 0.0) == pytest.approx(fast[2], rel=1e-12)
     for x, y in zip(kernels.rts_smoother(d, g, *fast[:2], 1e-4, 1e-2, 3e-2),
                     kernels.rts_smoother.py_func(d, g, *ref[:2], 1e-4, 1e-2, 3e-2)):
         np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-12)
@@ -180,7 +180,7 @@ def test_compiled_kernels_equal_the_reference():
     w = np.array([1.0, -m, -b])
     zz = z - m * acc - b * vel
     # same initial mean as the quadratic form: first value and slope of z
-    direct = kernels.kalman_loglik(d, g, zz, 1e-3, 1e-4, 1e-2, 3e-2, zz[0], slopes @ w, 1.0, 0.0, 4.0)
+    direct = kernels.kalman_loglik(d, g, zz, 1e-3, 1e-4, 1e-2, 3e-2, zz[0], slopes @ w, 1.0, 0.0, 4.0, 0.0)
     assert -0.5 * (n * np.log(2 * np.pi) + sls + w @ a @ w) == pytest.approx(direct, rel=1e-10)
 
 

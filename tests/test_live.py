@@ -560,3 +560,34 @@ def test_the_streams_verdict_codes_are_the_verdicts_severities():
     assert [v.code for v in Verdict] == [0, 1, 2] and Verdict.worst([]) is OK
     assert Verdict.worst([CAUTION, Verdict.UNRELIABLE, OK]) is Verdict.UNRELIABLE
     assert f"{CAUTION}" == "caution" and CAUTION == "caution"
+
+
+def test_the_live_noise_fit_is_for_the_filter_it_runs_with_its_memory(ramp_trial):
+    """The live model's noise levels maximise the likelihood of the filter the session runs, with its
+    fading memory, and the levels fitted without the memory maximise the filter without it: each is
+    the better of the two under its own filter (up to the optimiser's tolerance, 0.01 in log-likelihood,
+    its fatol), and they differ as the memory says they should."""
+    from limbstiff.estimate.kalman import fit_noise_levels
+    from limbstiff.live import identify
+    from limbstiff.statespace.smoother import kalman_loglik
+
+    y, f, _, fs = ramp_trial
+    # a memory of half a motion period (2 s), so that it weighs on the fit against the walk
+    model = identify.identify_live(y[:20000], f[:20000], fs=fs, memory_periods=0.5).model
+    assert model.fading > 0
+    rows = LiveEstimator(model).push(y[:20000], f[:20000]).rows
+    steps = rows[np.isfinite(rows[:, 5])]
+    z, angle, g = steps[:, 7], steps[:, 8], steps[:, 9]
+    common = dict(step=model.decimation / fs, deflection=g, initial_mean=(float(z[0]), 0.0),
+                  initial_cov=(model.initial_cov[0], 0.0, model.initial_cov[1]))
+    increments = np.diff(angle, prepend=angle[0])
+    without, _ = fit_noise_levels(increments, z, guess=model.noise, motion_frequency=model.motion_hz, **common)
+
+    def loglik(noise, fading):
+        return kalman_loglik(increments, z, noise, fading=fading, **common)
+
+    assert loglik(model.noise, model.fading) >= loglik(without, model.fading) - 0.01
+    assert loglik(without, 0.0) >= loglik(model.noise, 0.0) - 0.01
+    # the memory adds to the stiffness's variance what the walk would: the walk fitted with it is
+    # smaller, by more than the optimiser's resolution (0.02 in log level, its xatol)
+    assert np.log(without.stiffness_walk) - np.log(model.noise.stiffness_walk) > 0.05

@@ -126,7 +126,7 @@ def test_the_variants_of_the_one_forward_pass_agree_to_the_bit():
     loglik = 0.0
     for k in range(300):
         loglik -= 0.5 * (math.log(2.0 * math.pi) + math.log(var1[k]) + e1[k] * e1[k] / var1[k])
-    assert kernels.kalman_loglik(*args) == loglik
+    assert kernels.kalman_loglik(*args, 0.0) == loglik
     mean, cov, filtered = kernels.kalman_filter(*args[:3], np.ones(300, dtype=bool), *args[3:], True)
     assert filtered == loglik
     # the filter's mean moves by its gain times the innovation: e = z − (s + σ·d) before the update

@@ -73,9 +73,11 @@ class KalmanStiffness:
 
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, deflection: np.ndarray,
                      initial_mean, initial_cov, guess: NoiseLevels, motion_frequency: float,
-                     max_evaluations: int = 400) -> tuple[NoiseLevels, float]:
+                     max_evaluations: int = 400, fading: float = 0.0) -> tuple[NoiseLevels, float]:
     """Maximum-likelihood noise levels within :func:`~limbstiff.statespace.noise.noise_bounds`, by
-    the one noise fit (:func:`~limbstiff.statespace.noise.fit_levels`) from ``guess``.
+    the one noise fit (:func:`~limbstiff.statespace.noise.fit_levels`) from ``guess``, for the
+    filter with the stiffness's fading memory ``fading`` per step (0: none, offline;
+    :func:`~limbstiff.statespace.smoother.kalman_loglik`).
 
     Returns
     -------
@@ -87,7 +89,7 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
 
     def loglik(x):
         return kalman_loglik(increments, measured, NoiseLevels(*np.exp(x)), step=step, deflection=deflection,
-                             initial_mean=initial_mean, initial_cov=initial_cov)
+                             initial_mean=initial_mean, initial_cov=initial_cov, fading=fading)
 
     best, value = fit_levels(loglik, x0, bounds, max_evaluations)
     return NoiseLevels(*np.exp(best)), value

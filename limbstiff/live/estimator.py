@@ -83,6 +83,12 @@ class LiveModel:
         return kalman_decimation(1.0 / self.fs, self.corner_hz)
 
     @property
+    def fading(self) -> float:
+        """The stiffness's fading memory per model step, 1/λ − 1 with λ = exp(−Δt/T) (0 without a
+        memory): what :func:`~limbstiff.statespace.kernels.step` adds to its variance."""
+        return 0.0 if self.memory_s is None else float(np.expm1(self.decimation / self.fs / self.memory_s))
+
+    @property
     def window(self) -> int:
         """Model steps of the deflection's trailing average."""
         step = self.decimation / self.fs
@@ -171,8 +177,7 @@ class LiveEstimator:
         self.model = model
         self._sos = np.ascontiguousarray(model.sos)
         step = model.decimation / model.fs
-        fading = 0.0 if model.memory_s is None else float(np.expm1(step / model.memory_s))
-        self._per_step = np.array([*model.noise.per_step(step), fading])
+        self._per_step = np.array([*model.noise.per_step(step), model.fading])
         self._first = CENTRAL_FIRST * model.fs            # the offline chain's stencils, over Ts and Ts²
         self._second = CENTRAL_SECOND * model.fs ** 2
         self._mech = _mech(model)

@@ -76,7 +76,8 @@ def _trial(name: str, fs: float, angle: np.ndarray, torque: np.ndarray, variant:
 
 
 def _fit_noise(model: LiveModel, angle: np.ndarray, torque: np.ndarray, guess) -> LiveModel:
-    """The noise levels by maximum likelihood on the causal chain's steps over the record."""
+    """The noise levels by maximum likelihood on the causal chain's steps over the record, for the
+    filter the model runs: with its fading memory (:attr:`LiveModel.fading`)."""
     rows = LiveEstimator(model).push(angle, torque).rows
     steps = rows[np.isfinite(rows[:, 5])]
     z, y, g = steps[:, 7], steps[:, 8], steps[:, 9]
@@ -84,7 +85,7 @@ def _fit_noise(model: LiveModel, angle: np.ndarray, torque: np.ndarray, guess) -
     cov0 = (model.initial_cov[0], 0.0, model.initial_cov[1])
     noise, _ = fit_noise_levels(increments, z, step=model.decimation / model.fs, deflection=g,
                                 initial_mean=(float(z[0]), 0.0), initial_cov=cov0, guess=guess,
-                                motion_frequency=model.motion_hz)
+                                motion_frequency=model.motion_hz, fading=model.fading)
     return replace(model, noise=noise)
 
 
@@ -173,11 +174,12 @@ def _smoothed_tail(filtered, model: LiveModel) -> np.ndarray:
 
 
 def _fitted_estimator(model: LiveModel, angle, torque, guess, memory_periods) -> LiveEstimator:
-    """The noise levels fitted from ``guess``, the memory set, and the estimator run over the record
-    (its typical variance from the record's steps after the first :data:`START_SHARE`)."""
-    model = _fit_noise(model, angle, torque, guess)
+    """The memory set, the noise levels fitted from ``guess`` for the filter with that memory, and the
+    estimator run over the record (its typical variance from the record's steps after the first
+    :data:`START_SHARE`)."""
     if memory_periods is not None:
         model = replace(model, memory_s=memory_periods / model.motion_hz)
+    model = _fit_noise(model, angle, torque, guess)
     est = LiveEstimator(model)
     variance = est.push(angle, torque).rows[:, 4]
     start = int(START_SHARE * len(variance))

@@ -167,20 +167,23 @@ def _forward(d, g, chans, mean0, cov0, noise, restart, observed, what, moments, 
     return value
 
 
-def _one_channel(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22, observed, what, moments, covs, innovation, variance):
+def _one_channel(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22, observed, what, moments, covs, innovation, variance,
+                 fading):
     """:func:`_forward` on the one channel ``z`` (m,, contiguous) from the prior [s, k] and
-    [p11, p12, p22]; ``innovation`` is (m,) or (0,)."""
-    return _forward(d, g, z.reshape((z.shape[0], 1)), np.array([s, k]), (p11, p12, p22), (r, qs, qk, qc, 0.0),
+    [p11, p12, p22]; ``innovation`` is (m,) or (0,); ``fading`` the memory of :func:`step` (0: none)."""
+    return _forward(d, g, z.reshape((z.shape[0], 1)), np.array([s, k]), (p11, p12, p22), (r, qs, qk, qc, fading),
                     np.zeros(0, dtype=np.bool_), observed, what, moments, covs,
                     innovation.reshape((innovation.shape[0], 1)), variance, np.zeros((0, 0)))
 
 
-def kalman_loglik(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22):
+def kalman_loglik(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22, fading):
     """Log-likelihood of the one channel z (n,) under the model of :mod:`limbstiff.statespace`
-    (prediction-error decomposition), from the prior [s, k] and [p11, p12, p22]."""
+    (prediction-error decomposition), from the prior [s, k] and [p11, p12, p22], with the
+    stiffness's fading memory ``fading`` per step (:func:`step`; 0 offline, the live model's
+    when its noise levels are fitted)."""
     none = np.zeros(0)
     return _one_channel(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22, np.zeros(0, dtype=np.bool_), LOGLIK,
-                        np.zeros((0, 2)), np.zeros((0, 3)), none, none)
+                        np.zeros((0, 2)), np.zeros((0, 3)), none, none, fading)
 
 
 def kalman_filter(d, g, z, observed, r, qs, qk, qc, s, k, p11, p12, p22, with_loglik):
@@ -205,7 +208,7 @@ def kalman_filter(d, g, z, observed, r, qs, qk, qc, s, k, p11, p12, p22, with_lo
     cov = np.empty((n, 3))
     what = MOMENTS | LOGLIK if with_loglik else MOMENTS
     none = np.zeros(0)
-    loglik = _one_channel(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22, observed, what, mean, cov, none, none)
+    loglik = _one_channel(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22, observed, what, mean, cov, none, none, 0.0)
     return mean, cov, loglik
 
 
@@ -216,7 +219,7 @@ def kalman_innovations(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22):
     innovation = np.empty(n)
     variance = np.empty(n)
     _one_channel(d, g, z, r, qs, qk, qc, s, k, p11, p12, p22, np.zeros(0, dtype=np.bool_), INNOVATIONS,
-                 np.zeros((0, 2)), np.zeros((0, 3)), innovation, variance)
+                 np.zeros((0, 2)), np.zeros((0, 3)), innovation, variance, 0.0)
     return innovation, variance
 
 

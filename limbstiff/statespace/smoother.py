@@ -24,7 +24,7 @@ def _args(increments, deflection_, measured, noise, step, initial_mean, initial_
 
 def kalman_loglik(increments: np.ndarray, measured: np.ndarray, noise: NoiseLevels, *, step: float,
                   deflection: np.ndarray, initial_mean: tuple[float, float],
-                  initial_cov: tuple[float, float, float]) -> float:
+                  initial_cov: tuple[float, float, float], fading: float = 0.0) -> float:
     """Exact Gaussian log-likelihood of the measurements (prediction-error decomposition).
 
     Parameters
@@ -40,13 +40,17 @@ def kalman_loglik(increments: np.ndarray, measured: np.ndarray, noise: NoiseLeve
         g[k] (:func:`~limbstiff.statespace.steps.deflection`).
     initial_mean : (s0, σ0)
     initial_cov : (p11, p12, p22)
+    fading : float
+        The stiffness's fading memory per step, 1/λ − 1 (:func:`~limbstiff.statespace.kernels.step`):
+        0 offline; the live model's (:attr:`limbstiff.live.estimator.LiveModel.fading`) when its
+        noise levels are fitted for the filter it runs.
 
     Returns
     -------
     float
     """
     args = _args(increments, deflection, measured, noise, step, initial_mean, initial_cov)
-    return float(kernels.kalman_loglik(*args))
+    return float(kernels.kalman_loglik(*args, float(fading)))
 
 
 @dataclass(frozen=True)
