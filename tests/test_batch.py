@@ -17,8 +17,6 @@ from limbstiff.batch.runner import TrialOutcome
 from limbstiff.cli import main
 from limbstiff.cli.progress import Progress
 
-pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
-
 
 def run(*args):
     return CliRunner().invoke(main, [str(a) for a in args])
@@ -39,6 +37,7 @@ def _complete(directory, n_samples):
     return summary["n_samples"] == n_samples and len(frame) == n_samples and frame.notna().all().all()
 
 
+@pytest.mark.slow
 def test_resume_after_a_killed_batch(trial_file, tmp_path):
     folder = _folder(trial_file, tmp_path, 6, duration=4.0)
     out = tmp_path / "out"
@@ -69,6 +68,7 @@ def test_resume_after_a_killed_batch(trial_file, tmp_path):
     assert sorted(table.loc[table["resumed"] == 1, "trial"]) == done
 
 
+@pytest.mark.slow
 def test_resume_redoes_a_changed_input_only_with_overwrite(trial_file, tmp_path):
     folder = _folder(trial_file, tmp_path, 2)
     out = tmp_path / "out"
@@ -87,6 +87,7 @@ def test_resume_redoes_a_changed_input_only_with_overwrite(trial_file, tmp_path)
     assert res.exit_code == 2 and "were made with other settings" in res.output
 
 
+@pytest.mark.slow
 def test_parallel_output_is_identical_to_serial(trial_file, tmp_path):
     folder = _folder(trial_file, tmp_path, 2)
     outs = {jobs: tmp_path / f"out{jobs}" for jobs in (1, 2)}
@@ -103,6 +104,7 @@ def test_parallel_output_is_identical_to_serial(trial_file, tmp_path):
     pd.testing.assert_frame_equal(ta, tb)
 
 
+@pytest.mark.slow
 def test_summary_csv_carries_metadata_columns(trial_file, tmp_path):
     out = tmp_path / "out"
     assert run("analyze", trial_file("t1"), "--out", out, "--no-pdf").exit_code == 0
@@ -167,6 +169,7 @@ def _stamps(out):
     return {p: p.stat().st_mtime_ns for p in sorted(out.rglob("*")) if p.is_file() and p.name != "summary.csv"}
 
 
+@pytest.mark.slow
 def test_summary_csv_is_the_folders_table_across_runs(trial_file, tmp_path):
     # plain run, then --resume with one more trial, then the plain command again: every trial
     # keeps its `ok` row and no trial's outputs are touched by a run that had nothing to do
@@ -188,6 +191,7 @@ def test_summary_csv_is_the_folders_table_across_runs(trial_file, tmp_path):
     assert set(table["resumed"]) == {1} and _stamps(out) == before
 
 
+@pytest.mark.slow
 def test_a_missing_path_among_good_ones_is_a_failed_row(trial_file, tmp_path):
     out = tmp_path / "out"
     res = run("analyze", trial_file("t1"), tmp_path / "nope.csv", "--out", out, "--no-pdf", "--jobs", 1)
@@ -218,6 +222,7 @@ def test_diagnose_checks_its_output_folder_first(trial_file, tmp_path):
     assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1 and "--out" in res.output
 
 
+@pytest.mark.slow
 def test_another_seed_into_the_same_out_stops_before_touching_anything(trial_file, tmp_path):
     # issue 35: a re-run with other settings used to rewrite summary.csv with every row `failed`
     folder = _folder(trial_file, tmp_path, 2, duration=3.0)
@@ -242,6 +247,7 @@ def test_another_seed_into_the_same_out_stops_before_touching_anything(trial_fil
     assert list(table["trial"]) == ["t0", "t1"] and set(table["status"]) == {"ok"} and set(table["resumed"]) == {0}
 
 
+@pytest.mark.slow
 def test_a_report_this_run_writes_and_the_outputs_lack_is_refused_by_name(trial_file, tmp_path):
     out = tmp_path / "out"
     path = trial_file("t1", duration=3.0)
@@ -253,6 +259,7 @@ def test_a_report_this_run_writes_and_the_outputs_lack_is_refused_by_name(trial_
     assert (out / "summary.csv").read_bytes() == table and not (out / "t1" / "report.pdf").exists()
 
 
+@pytest.mark.slow
 def test_units_and_kind_in_the_outputs_and_a_batch_of_mixed_kinds_says_so(tmp_path):
     # examples/ holds a rotational elbow and a translational exponential spring
     from limbstiff.batch.table import SUMMARY_COLUMNS

@@ -16,8 +16,6 @@ from limbstiff.mechanics.fixed_b import bartlett_fixed_b
 from limbstiff.statespace.linear import long_run_covariance
 from limbstiff.trial_level import trial_level
 
-pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
-
 
 def test_course_draws_have_the_smoothers_posterior_variance():
     # Durbin & Koopman's simulation smoother draws from the smoothed posterior: the variance over
@@ -116,6 +114,7 @@ def test_trial_level_intervals_cover_the_median_of_known_draws():
     assert level.stiffness_torque_slope.hi - level.stiffness_torque_slope.lo == pytest.approx(0.0, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_simulation_based_calibration_of_inertia_and_damping():
     # SBC in small (Talts et al. 2018, arXiv:1804.06788): m, b, the stiffness course, noise and encoder
     # drawn at random as in benchmarks/identify.py (support/recovery_trials.py, 10 s instead of 20), simulated by
@@ -177,6 +176,7 @@ def test_angle_error_effect_reports_the_fits_mean_change_spread_and_sandwich_inc
     np.testing.assert_array_equal(no_sandwich.in_residual, np.zeros((2, 2)))
 
 
+@pytest.mark.slow
 def test_the_angle_errors_part_of_the_sandwich_is_not_counted_twice():
     # The sandwich is built from the torque residual, which holds the recording's quantisation;
     # the angle error's simulated spread holds it too, so its part (the sandwich's mean increase

@@ -13,8 +13,6 @@ from limbstiff.batch import cluster
 from limbstiff.batch.runner import BatchJob, TrialOutcome, run_jobs
 from limbstiff.cli import main
 
-pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
-
 
 def run(*args):
     return CliRunner().invoke(main, [str(a) for a in args])
@@ -29,6 +27,7 @@ def _folder(trial_file, tmp_path, n):
     return folder
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_equals_jobs_1(trial_file, tmp_path, monkeypatch):
     """Two worker processes of a LocalCluster: every output byte-identical to --jobs 1 (apart
     from the output folder's name), the broken file a failed row, exit status 1 in both."""

@@ -21,8 +21,6 @@ from limbstiff.files import write_trial
 from limbstiff.protocol import Protocol
 from limbstiff.simulate import effect_defaults, simulate
 
-pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
-
 
 # --- where: pure functions against exact answers ------------------------------------------------
 
@@ -187,6 +185,7 @@ def test_every_effect_knows_its_parameters_grid_and_removal():
     np.testing.assert_allclose(corr.torque[:-k], ch.raw_torque[k:], atol=1e-9)
 
 
+@pytest.mark.slow
 def test_a_new_effect_is_one_object():
     # a made-up torque ∝ y³ (a hardening spring is a stiffness, which the model's static spring
     # holds): the library is a plain dict of objects, and diagnose asks the objects for everything
@@ -235,6 +234,7 @@ CASES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("joint,effect,seed,extra", CASES, ids=[f"{c[0]}-{c[1]}" for c in CASES])
 def test_the_right_effect_is_found(joint, effect, seed, extra):
     trial = _trial(joint, effect, seed, **extra)
@@ -254,6 +254,7 @@ def test_the_right_effect_is_found(joint, effect, seed, extra):
         assert c.params["delay"] == pytest.approx(float(trial.metadata["effect.delay"]), abs=0.0015)
 
 
+@pytest.mark.slow
 def test_gravity_and_drift_are_held_by_the_model_and_said_so():
     # a torque of the angle alone is a (generalized) stiffness, a slow offset drift a walk of the
     # elastic torque: neither is a candidate, neither is diagnosed, and the notes say why
@@ -270,6 +271,7 @@ def test_gravity_and_drift_are_held_by_the_model_and_said_so():
     assert d.trials[0].stiffness_median < 0.8 * np.median(trial.stiffness_true)
 
 
+@pytest.mark.slow
 def test_identified_mechanics_are_fitted_with_the_effects():
     # m and b identified: an error of either is not a separate effect (dropped, and said so), and
     # each candidate's model carries its own m and b
@@ -294,6 +296,7 @@ def test_identified_mechanics_are_fitted_with_the_effects():
     assert row.damping_with_effects.median == pytest.approx(b, rel=0.1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("joint,seed", [("elbow", 31), ("ankle", 32)])
 def test_clean_trials_get_an_empty_diagnosis(joint, seed):
     d = _diagnose(_trial(joint, None, seed))
@@ -305,6 +308,7 @@ def test_clean_trials_get_an_empty_diagnosis(joint, seed):
 
 # --- command line ------------------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_cli_writes_the_contract(tmp_path):
     path = write_trial(_trial("ankle", "reflex", 41, duration=15.0), tmp_path / "t.csv")
     out = tmp_path / "out"
@@ -383,6 +387,7 @@ def test_innovations_are_linear_in_the_channels():
     np.testing.assert_allclose(var1, var)
 
 
+@pytest.mark.slow
 def test_a_pooled_diagnosis_shows_each_trials_own_selection(tmp_path):
     # an elbow with a reflex pooled with a clean wrist: pooled, the reflex is diluted (issue 34: a folder
     # of an elbow with a reflex, a wrist and an ankle said "effects: none"); each trial's own selection
@@ -411,6 +416,7 @@ def test_a_pooled_diagnosis_shows_each_trials_own_selection(tmp_path):
     assert diagnose([read_trial(tmp_path / "a.csv")], seed=4).diagnosis == ("reflex",)
 
 
+@pytest.mark.slow
 def test_cli_diagnoses_several_trials_in_processes(tmp_path):
     # --jobs 2: both trials read and analysed in worker processes, each reported once, in input order
     # in the outputs; a missing-channel file among them is one failed line, the others still diagnosed
@@ -445,6 +451,7 @@ def _independent(tmp_path, name, form, joint, course, seed):
     ("quaddampsat", "ankle", "constant", ("quadratic_damping",)),  # c·v|v|/(1 + |v|/v_sat), not c·v|v|
     (None, "elbow", "cocontraction", ()),                           # clean, stiffness swinging ±50 %
 ])
+@pytest.mark.slow
 def test_effects_of_an_independent_simulator(tmp_path, form, joint, course, expected):
     # seeds outside the benchmark's (benchmarks/diagnose_independent.py uses 7100–7223), 20 s instead of 30
     seed = {"stribeck": 9001, "quaddampsat": 9002}.get(form, 9003)

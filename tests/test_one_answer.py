@@ -38,6 +38,7 @@ def reflex_cases():
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("direction", [1.0, -1.0])
 def test_a_reflex_has_one_direction_and_delay_and_it_is_the_simulated_one(reflex_cases, direction):
     trial, result, with_reflex, diag = reflex_cases[direction]
@@ -52,6 +53,7 @@ def test_a_reflex_has_one_direction_and_delay_and_it_is_the_simulated_one(reflex
     assert diag.after.params["reflex"]["direction"] == direction
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("direction", [1.0, -1.0])
 def test_diagnose_states_the_analysis_stiffness_on_a_simulated_trial(reflex_cases, direction):
     trial, result, _, diag = reflex_cases[direction]
@@ -72,6 +74,7 @@ def z_pf():
     return trial, protocol, analyze(trial, protocol, seed=0)
 
 
+@pytest.mark.slow
 def test_diagnose_states_the_analysis_stiffness_on_a_real_ankle(z_pf):
     trial, protocol, result = z_pf
     median = result.informed_stiffness()[0].median
@@ -90,12 +93,14 @@ def _within_the_drawing(result):
     return float(drawn.min()) <= median <= float(drawn.max()), (median, drawn.min(), drawn.max())
 
 
+@pytest.mark.slow
 def test_page_one_headline_lies_within_the_course_it_draws(z_pf, reflex_cases):
     for result in [z_pf[2]] + [case[1] for case in reflex_cases.values()]:
         inside, numbers = _within_the_drawing(result)
         assert inside, numbers
 
 
+@pytest.mark.slow
 def test_page_one_draws_the_course_the_headline_summarises(z_pf):
     """The per-cycle values are medians of the trial-level figures' course (with the change with the
     angle within the cycle), not of the smoothed course alone, which lacks it."""

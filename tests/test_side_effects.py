@@ -15,8 +15,6 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.slow        # end to end: `pytest -m "not slow"` is the inner loop
-
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "limbstiff"
 #: Calls that change the whole process: choosing matplotlib's backend, switching the collector.
@@ -108,6 +106,7 @@ def test_the_package_has_no_process_global_side_effects():
     assert found == {}
 
 
+@pytest.mark.slow
 def test_the_diagnosis_report_leaves_the_users_matplotlib_alone(tmp_path):
     pytest.importorskip("matplotlib")
     # a fresh process: the user chose a backend (svg, not the Agg the report used to force) and has
