@@ -292,6 +292,12 @@ def test_identified_mechanics_are_fitted_with_the_effects():
     assert row.with_effects.median == pytest.approx(np.median(trial.stiffness_true), rel=0.1)
     assert row.with_effects.lo < row.with_effects.median < row.with_effects.hi
     assert row.damping_with_effects.median == pytest.approx(b, rel=0.1)
+    # the result protocol: diagnosis.json's dict, the candidates' table, their bars, the answer in words
+    from .support.result_protocol import check_protocol
+    data, frame, text = check_protocol(d)
+    assert data["diagnosis"][:1] == ["reflex"] and list(frame["effect"]) == [c.effect for c in d.candidates]
+    assert frame.set_index("effect").loc["reflex", "chosen"] and "reflex" in text.splitlines()[0]
+    assert f"{row.with_effects.median:.4g}" in text
 
 
 @pytest.mark.parametrize("joint,seed", [("elbow", 31), ("ankle", 32)])

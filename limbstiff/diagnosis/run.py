@@ -448,7 +448,7 @@ def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, ou
     data["failed"] = list(failed)
     write_json(out / "diagnosis.json", data)
     if pdf:
-        diag.plot(out / "diagnosis.pdf")
+        diag.write_pdf(out / "diagnosis.pdf")
     elif (out / "diagnosis.pdf").exists():
         (out / "diagnosis.pdf").unlink()
     written = (str(out / "diagnosis.json"),) + ((str(out / "diagnosis.pdf"),) if pdf else ())
