@@ -134,7 +134,7 @@ def test_parts_become_json_by_their_fields():
 
 
 def test_a_trials_own_selection_becomes_json_by_its_fields():
-    from limbstiff.diagnosis.parts import TrialEffect, TrialSelection
+    from limbstiff.diagnosis.per_trial import TrialEffect, TrialSelection
     from limbstiff.diagnosis.per_trial import disagreements
     from limbstiff.files.outputs import jsonable
     reflex = TrialEffect(effect="reflex", step=1, shrink_heldout=0.7, share_of_nominal_gap=0.7,

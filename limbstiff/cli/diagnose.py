@@ -32,7 +32,7 @@ def command(paths: tuple[str, ...], protocol_path: str | None, out: str, seed: i
     diagnosis.pdf (not with --no-pdf)."""
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
     from ..files.outputs import refuse_existing
-    from ..diagnosis.run import diagnose_files
+    from ..diagnosis.from_files import diagnose_files
 
     refuse_existing(out, ("diagnosis.json", "diagnosis.pdf"), overwrite=overwrite)     # before any trial runs
     from ..batch.cluster import dask_executor

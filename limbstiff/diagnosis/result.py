@@ -1,5 +1,6 @@
 """The outcome of a diagnosis as first-class objects: :class:`Diagnosis` and its :class:`Candidate`
-effects (the typed parts they hold: :mod:`limbstiff.diagnosis.parts`).
+effects (the typed parts they hold: :mod:`limbstiff.diagnosis.parts`; a trial's own selection:
+:mod:`limbstiff.diagnosis.per_trial`).
 
 ``Diagnosis.to_dict()`` is the content of ``diagnosis.json`` (docs/interface.md section 5: keys
 ``gap`` {metric, train, heldout}, ``where``, ``candidates`` [{effect, params, gap_train,
@@ -18,7 +19,8 @@ from typing import TYPE_CHECKING, Mapping
 from ..files.outputs import jsonable
 from ..provenance import software
 from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StiffnessBias, TrialInfo,
-                    TrialSelection, TrialStiffness)
+                    TrialStiffness)
+from .per_trial import TrialSelection
 
 if TYPE_CHECKING:
     from .residual import TrialSeries, Where
