@@ -298,6 +298,8 @@ def test_identified_mechanics_are_fitted_with_the_effects():
     assert data["diagnosis"][:1] == ["reflex"] and list(frame["effect"]) == [c.effect for c in d.candidates]
     assert frame.set_index("effect").loc["reflex", "chosen"] and "reflex" in text.splitlines()[0]
     assert f"{row.with_effects.median:.4g}" in text
+    with pytest.raises(TypeError, match="write_pdf"):
+        d.plot("diagnosis.pdf")                   # the PDF is write_pdf's, as plot(path) wrote it before
 
 
 @pytest.mark.parametrize("joint,seed", [("elbow", 31), ("ankle", 32)])

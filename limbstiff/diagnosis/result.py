@@ -14,6 +14,7 @@ words); ``Diagnosis.write_pdf(path)`` hands ``diagnosis.pdf`` over to :mod:`limb
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from os import PathLike
 from typing import TYPE_CHECKING, Mapping
 
 from ..files.outputs import jsonable
@@ -210,7 +211,10 @@ class Diagnosis:
 
     def plot(self, ax=None):
         """Draw the candidates' held-out shrinkage with their intervals into a matplotlib axes
-        (:func:`limbstiff.report.axes_diagnosis.plot_candidates`); returns the axes."""
+        (:func:`limbstiff.report.axes_diagnosis.plot_candidates`); returns the axes. (The PDF, which
+        ``plot(path)`` wrote before, is :meth:`write_pdf`.)"""
+        if isinstance(ax, (str, PathLike)):
+            raise TypeError(f"Diagnosis.plot draws into a matplotlib axes; write {ax} with write_pdf(path)")
         from ..report.axes_diagnosis import plot_candidates
         return plot_candidates(self, ax=ax)
 
