@@ -31,7 +31,7 @@ _API = {
     "analyze_files": "limbstiff.batch.jobs",
     "identify_files": "limbstiff.batch.jobs",
     "diagnose": "limbstiff.diagnosis.run",
-    "diagnose_files": "limbstiff.diagnosis.run",
+    "diagnose_files": "limbstiff.diagnosis.from_files",
 }
 
 __all__ = ["__version__", *_API]

@@ -30,6 +30,7 @@ from .checks.reflex import ReflexShift, reflex_check
 from .checks.units import implausible_inertia, plausible, units_checks
 from .checks.verdict import MOTION_MIN, ModelChecks
 from .coefficients import Coefficients
+from .curve_result import curve_analysis
 from .effects.in_model import ShapeProfile, reflex_probe, reflex_shift
 from .errors import TrialError
 from .estimate import estimators
@@ -201,8 +202,8 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
     checks = check_analysis(course.filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=course.noise, coupling=coupling, corrected=corrected, angle_terms=angle)
     reflex = reflex_check(_reflex_shift(course, ident, observable, level))
-    curve = spec.curve and scheduled.curve_analysis(prepared, spec.curve, estimate, ident, observable=observable,
-                                                    stiffness=stiffness, level=level, seed=seed)
+    curve = spec.curve and curve_analysis(prepared, spec.curve, estimate, ident, observable=observable,
+                                          stiffness=stiffness, level=level, seed=seed)
     more = ((reflex,) if reflex is not None else ()) + (curve.checks if curve else ())
     checks = units_checks(ModelChecks(checks.checks + more), implausible_inertia(trial, protocol, ident, found))
     return StiffnessResult(

@@ -3,12 +3,15 @@
 A :class:`StiffnessResult` holds the stiffness course of one trial with its band and
 observability, the inertia and damping used, and the protocol that produced them. It turns
 itself into the contract's outputs: :meth:`StiffnessResult.to_frame` (the rows of
-``stiffness.csv``) and :meth:`StiffnessResult.summary` (``summary.json``).
+``stiffness.csv``) and :meth:`StiffnessResult.to_dict` (``summary.json``; :meth:`~StiffnessResult.summary`
+is its older name). Like the curve, diagnosis and batch results it answers ``to_dict()``,
+``to_frame()``, ``plot(ax=…)`` and ``report()``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,12 +27,14 @@ from .interval import Interval
 from .mechanics.identification import Identification
 from .mechanics.posterior import Posterior
 from .protocol import Protocol
-from .scheduled.run import CurveAnalysis
-from .scheduled.curve import ScheduleCurve
 from .settings import DerivedSettings
 from .provenance import settings_hash, software
 from .trial import Trial
 from .trial_level import REFERENCE_SKIP_S, TrialLevel
+
+if TYPE_CHECKING:
+    from .curve_result import CurveAnalysis
+    from .scheduled.curve import ScheduleCurve
 
 __all__ = ["StiffnessResult", "DerivedSettings", "Interval", "software"]
 
@@ -152,7 +157,7 @@ class StiffnessResult:
             ``time``: the course with its band, uninformed stretches shaded (page 1's figure);
             ``angle``/``torque``: medians in bins with the band, over the informed samples;
             ``phase``/``schedule``: the curve of an ensemble or a schedule analysis, its band and
-            the cycles' spread (:func:`limbstiff.report.plots.plot_curve`).
+            the cycles' spread (:meth:`limbstiff.curve_result.CurveAnalysis.plot`).
         reference : bool
             With ``against="time"``, draw the reference stiffness when there is one.
 
@@ -160,14 +165,13 @@ class StiffnessResult:
         -------
         matplotlib.axes.Axes
         """
-        from .report.plots import plot_curve, plot_relation, plot_stiffness
+        from .report.plots import plot_relation, plot_stiffness
         if against == "time":
             return plot_stiffness(self, ax=ax, reference=reference)
         if against in ("phase", "schedule"):
-            curve = self.by_phase if against == "phase" else self.by_schedule
-            if curve is None:
+            if self.curve is None or self.curve.against != against:
                 raise ValueError(f"this analysis has no stiffness by {against} (give [cycles] or a schedule column)")
-            return plot_curve(curve, ax=ax)
+            return self.curve.plot(ax=ax, unit_stiffness=self.trial.units["stiffness"])
         return plot_relation(self, against, ax=ax)
 
     def report(self) -> str:
@@ -296,6 +300,11 @@ class StiffnessResult:
                           for x in (self.stiffness, self.stiffness_lo, self.stiffness_hi))), low, high
 
     def summary(self) -> dict:
+        """The content of ``summary.json``: :meth:`to_dict` under its older name (kept for the
+        scripts that call it)."""
+        return self.to_dict()
+
+    def to_dict(self) -> dict:
         """The content of ``summary.json`` (docs/interface.md section 4), JSON-ready."""
         median, low, high = self.informed_stiffness()
         stiffness = dict(median.to_dict(), min=low, max=high)

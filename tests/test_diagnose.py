@@ -132,7 +132,7 @@ def test_parts_become_json_by_their_fields():
 
 
 def test_a_trials_own_selection_becomes_json_by_its_fields():
-    from limbstiff.diagnosis.parts import TrialEffect, TrialSelection
+    from limbstiff.diagnosis.per_trial import TrialEffect, TrialSelection
     from limbstiff.diagnosis.per_trial import disagreements
     from limbstiff.files.outputs import jsonable
     reflex = TrialEffect(effect="reflex", step=1, shrink_heldout=0.7, share_of_nominal_gap=0.7,
@@ -294,6 +294,14 @@ def test_identified_mechanics_are_fitted_with_the_effects():
     assert row.with_effects.median == pytest.approx(np.median(trial.stiffness_true), rel=0.1)
     assert row.with_effects.lo < row.with_effects.median < row.with_effects.hi
     assert row.damping_with_effects.median == pytest.approx(b, rel=0.1)
+    # the result protocol: diagnosis.json's dict, the candidates' table, their bars, the answer in words
+    from .support.result_protocol import check_protocol
+    data, frame, text = check_protocol(d)
+    assert data["diagnosis"][:1] == ["reflex"] and list(frame["effect"]) == [c.effect for c in d.candidates]
+    assert frame.set_index("effect").loc["reflex", "chosen"] and "reflex" in text.splitlines()[0]
+    assert f"{row.with_effects.median:.4g}" in text
+    with pytest.raises(TypeError, match="write_pdf"):
+        d.plot("diagnosis.pdf")                   # the PDF is write_pdf's, as plot(path) wrote it before
 
 
 @pytest.mark.slow

@@ -121,7 +121,7 @@ def test_the_diagnosis_report_leaves_the_users_matplotlib_alone(tmp_path):
         from limbstiff.simulate import simulate
         trial = simulate("ankle", seed=5, params={{"duration": 8.0}})
         d = limbstiff.diagnose([trial], seed=0)
-        d.plot({str(tmp_path / "diagnosis.pdf")!r})
+        d.write_pdf({str(tmp_path / "diagnosis.pdf")!r})
         limbstiff.write_report(limbstiff.analyze(trial, seed=0), {str(tmp_path / "report.pdf")!r})
         assert matplotlib.get_backend() == "svg", matplotlib.get_backend()
         assert plt.get_fignums() == [1] and len(plt.gcf().axes[0].lines) == 1

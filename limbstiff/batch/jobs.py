@@ -17,8 +17,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Sequence
 
 from .discovery import NothingToDo, discover, output_names, writable_folder
+from .outcome import BatchReport
+from .overwrite import clear_or_refuse, refuse_other_outputs, source_sha256
 from .runner import BatchJob, TrialOutcome, run_jobs, run_one
-from .table import TrialRow, folder_outcomes, mixed_kinds, outputs_state, up_to_date, write_summary_csv
+from .table import TrialRow, folder_outcomes, mixed_kinds, up_to_date, write_summary_csv
 from ..errors import LimbstiffError
 from ..protocol import Protocol
 
@@ -66,40 +68,6 @@ class JobOptions:
     ensemble: tuple[Path, ...] = ()
 
 
-@dataclass(frozen=True)
-class BatchReport:
-    """Outcome of a batch run.
-
-    Parameters
-    ----------
-    outcomes : tuple of TrialOutcome of TrialRow
-        One per trial, in input order.
-    out : Path
-        Output folder.
-    notes : tuple of str
-        Run-level remarks (stem collisions…).
-    missing : tuple of str
-        One line per path that matched nothing, with why (also a failed row of ``summary.csv``).
-    warnings : tuple of str
-        Run-level warnings (a table mixing rotational and translational trials).
-    """
-
-    outcomes: tuple[TrialOutcome[TrialRow], ...]
-    out: Path
-    notes: tuple[str, ...] = ()
-    missing: tuple[str, ...] = ()
-    warnings: tuple[str, ...] = ()
-
-    @property
-    def n_failed(self) -> int:
-        return sum(o.status != "ok" for o in self.outcomes)
-
-    @property
-    def exit_status(self) -> int:
-        """0 when every trial is done, 1 when some failed (docs/interface.md section 2)."""
-        return 1 if self.n_failed else 0
-
-
 def run_fingerprint(protocol: Protocol, *, seed: int, reference=None) -> str:
     """SHA-256 of everything besides the input that determines a trial's outputs.
 
@@ -112,76 +80,6 @@ def run_fingerprint(protocol: Protocol, *, seed: int, reference=None) -> str:
     key = {"settings": jsonable(protocol.to_dict()), "seed": seed, "version": __version__,
            "reference": None if reference is None else jsonable(reference.to_dict())}
     return hashlib.sha256(json.dumps(key, sort_keys=True, default=str).encode("utf-8")).hexdigest()
-
-
-def _clear_or_refuse(job: BatchJob[JobOptions], marker: str) -> None:
-    """Refuse to replace complete outputs without ``--overwrite``; with it, remove ``marker``
-    first, so that the folder reads as incomplete until the new outputs are all written."""
-    if not (job.at(job.out) / marker).exists():
-        return
-    if not job.options.overwrite:
-        why = "were made from another input or other settings, or lack a file this run writes"
-        raise LimbstiffError(f"{job.source}: outputs in {job.out} {why} (use --overwrite to replace them)")
-    (job.at(job.out) / marker).unlink()
-
-
-def refuse_other_outputs(jobs: Sequence[BatchJob[JobOptions]], out: Path, *, marker: str,
-                         files: Sequence[str]) -> None:
-    """Stop a run, before it touches anything, that would have to replace complete outputs in
-    ``out`` without ``--overwrite``: made with other settings (seed, protocol, reference,
-    version), from another input, or lacking a file this run writes. Current outputs are kept
-    by the run itself (up to date, skipped).
-
-    Raises
-    ------
-    OutputExists
-        One line naming the folder and what to do.
-    OutputPathError
-        A file stands where a trial's output folder goes (with ``--overwrite`` too).
-    """
-    from ..files.outputs import OutputExists, OutputPathError
-
-    blocked = [job.name for job in jobs if job.out.exists() and not job.out.is_dir()]
-    if blocked:
-        raise OutputPathError(f"{out}: cannot write the outputs of {_names(blocked)} (a file is there, not a folder); "
-                              "move it or choose another --out")
-    if not jobs or jobs[0].options.overwrite:
-        return
-    stale: dict[str, list[str]] = {}
-    for job in jobs:
-        stale.setdefault(_outputs_state(job, files=files, marker=marker), []).append(job.name)
-    what = "use --overwrite or another --out"
-    if "settings" in stale:
-        raise OutputExists(f"outputs in {out} were made with other settings: {what}")
-    if "input" in stale:
-        raise OutputExists(f"outputs in {out} were made from another input ({_names(stale['input'])}): {what}")
-    if "files" in stale:
-        lacking = [f for f in files if any(not (out / name / f).is_file() for name in stale["files"])]
-        raise OutputExists(f"outputs in {out} lack {', '.join(lacking)}, which this run writes "
-                           f"({_names(stale['files'])}): {what}")
-
-
-def _names(names: Sequence[str], shown: int = 3) -> str:
-    return ", ".join(names[:shown]) + (f" and {len(names) - shown} more" if len(names) > shown else "")
-
-
-def _outputs_state(job: BatchJob[JobOptions], *, files: Sequence[str], marker: str) -> str:
-    """What the job's outputs are to this run (:func:`~limbstiff.batch.table.outputs_state`);
-    an ensemble's input is its files, by :func:`source_sha256`."""
-    ensemble = getattr(job.options, "ensemble", ())
-    return outputs_state(job.out, source=job.source, run_sha256=job.options.run_sha256, files=files, marker=marker,
-                         input_sha256=(lambda: source_sha256(job)) if ensemble else None)
-
-
-def source_sha256(job: BatchJob) -> str:
-    """SHA-256 of the job's input: its file's, or an ensemble's over its files' (in order)."""
-    from ..files.atomic import sha256_file
-    from ..files.ensemble import ensemble_sha256
-
-    files = getattr(job.options, "ensemble", ())
-    if files:
-        return ensemble_sha256(sha256_file(job.at(f)) for f in files)
-    return sha256_file(job.at(job.source))
 
 
 def read_job_trial(job: BatchJob, protocol: Protocol):
@@ -209,7 +107,7 @@ def _analyse_and_write(job: BatchJob[JobOptions]) -> TrialRow:
         done = up_to_date(out, source_sha256=source_sha256(job), run_sha256=opts.run_sha256, files=files)
         if done is not None:
             return done
-    _clear_or_refuse(job, SUMMARY_JSON)
+    clear_or_refuse(job, SUMMARY_JSON)
     if not opts.pdf and (out / REPORT_PDF).exists():
         (out / REPORT_PDF).unlink()              # a report of an earlier run would not match
     for name in CURVE_CSV.values():              # nor a curve of an earlier run with other cycles
@@ -315,7 +213,7 @@ def _identify_and_write(job: BatchJob[JobOptions]) -> TrialRow:
                           files=list(_identify_writes(opts.protocol)), marker="posterior.json")
         if done is not None:
             return done
-    _clear_or_refuse(job, "posterior.json")
+    clear_or_refuse(job, "posterior.json")
     trial = read_job_trial(job, opts.protocol)
     ident = identify_trial(trial, opts.protocol, seed=opts.seed)
     out.mkdir(parents=True, exist_ok=True)

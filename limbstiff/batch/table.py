@@ -156,16 +156,21 @@ def _interval_columns(row: TrialRow) -> dict:
     return out
 
 
-def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome[TrialRow]]) -> None:
-    """Write ``summary.csv``, one row per trial, atomically.
+def summary_table(outcomes: Sequence[TrialOutcome[TrialRow]]) -> dict[str, np.ndarray]:
+    """The columns of ``summary.csv``, one row per outcome (object arrays; None a blank cell).
 
     The fixed columns (:data:`SUMMARY_COLUMNS`) come first, then one ``meta.<key>`` column per
-    metadata key found in any trial (empty where a trial lacks it), so a spreadsheet can sort
+    metadata key found in any trial (None where a trial lacks it), so a spreadsheet can sort
     and group the trials by subject, condition….
     """
     rows = [summary_row(o) for o in outcomes]
     meta = sorted({k for r in rows for k in r if k.startswith(METADATA_PREFIX)})
-    write_csv(path, {name: np.array([r.get(name) for r in rows], dtype=object) for name in [*SUMMARY_COLUMNS, *meta]})
+    return {name: np.array([r.get(name) for r in rows], dtype=object) for name in [*SUMMARY_COLUMNS, *meta]}
+
+
+def write_summary_csv(path: Path, outcomes: Sequence[TrialOutcome[TrialRow]]) -> None:
+    """Write ``summary.csv`` (:func:`summary_table`), one row per trial, atomically."""
+    write_csv(path, summary_table(outcomes))
 
 
 def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: Iterable[str],

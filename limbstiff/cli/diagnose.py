@@ -32,7 +32,7 @@ def command(paths: tuple[str, ...], protocol_path: str | None, out: str, seed: i
     diagnosis.pdf (not with --no-pdf)."""
     jobs = n_jobs(jobs, scheduler)            # before connecting to any scheduler
     from ..files.outputs import refuse_existing
-    from ..diagnosis.run import diagnose_files
+    from ..diagnosis.from_files import diagnose_files
 
     refuse_existing(out, ("diagnosis.json", "diagnosis.pdf"), overwrite=overwrite)     # before any trial runs
     from ..batch.cluster import dask_executor
@@ -47,8 +47,7 @@ def command(paths: tuple[str, ...], protocol_path: str | None, out: str, seed: i
     if report.diagnosis is None:
         fail("no trial could be diagnosed", report.exit_status)
     d = report.diagnosis
-    found = ", ".join(d.diagnosis) if d.diagnosis else "none (the nominal model explains the data)"
-    click.echo(f"gap {100 * d.gap_heldout:.2f} % held out; effects: {found}; outputs in {report.out}", err=True)
+    click.echo(f"{d.headline}; outputs in {report.out}", err=True)
     differ = [s for s in d.per_trial if not s.agrees]
     if differ:
         alone = "; ".join(f"{s.trial} alone: {', '.join(s.diagnosis) or 'none'}" for s in differ)

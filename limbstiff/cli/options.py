@@ -11,7 +11,7 @@ import click
 from ..errors import LimbstiffError
 
 if TYPE_CHECKING:
-    from ..batch.jobs import BatchReport
+    from ..batch.outcome import BatchReport
 
 EXIT_OK, EXIT_SOME_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -43,11 +43,8 @@ def finish(report: BatchReport) -> NoReturn:
         click.echo(f"limbstiff: warning: {warning}", err=True)
     for note in report.notes:
         click.echo(f"limbstiff: note: {note}", err=True)
-    n = len(report.outcomes)
-    resumed = sum(getattr(o, "resumed", False) for o in report.outcomes)
-    skipped = f" ({resumed} up to date, skipped; --overwrite to redo)" if resumed else ""
-    click.echo(f"{n - report.n_failed} of {n} trials done{skipped}; outputs in {report.out}", err=True)
-    sys.exit(report.exit_status if n else EXIT_USAGE)
+    click.echo(report.tally, err=True)
+    sys.exit(report.exit_status if report.outcomes else EXIT_USAGE)
 
 
 def n_jobs(jobs, scheduler=None):

@@ -14,7 +14,7 @@ candidate library, :data:`~limbstiff.effects.registry.CANDIDATES`), ``residual``
 ``selection`` (greedy selection with a sign-flip test, intervals, ambiguities), ``per_trial``
 (each trial's own selection beside the pooled one), ``bias`` (the
 stiffness with an effect removed), ``result``
-(``Diagnosis``, ``Candidate``) and ``run`` (:func:`diagnose`, :func:`diagnose_files`).
+(``Diagnosis``, ``Candidate``), ``run`` (:func:`diagnose`) and ``from_files`` (:func:`diagnose_files`).
 
 The package is named for the command it serves (``limbstiff diagnose``); the library call is the
 plain function :func:`limbstiff.diagnose` (= :func:`limbstiff.diagnosis.diagnose`).
@@ -22,6 +22,7 @@ plain function :func:`limbstiff.diagnose` (= :func:`limbstiff.diagnosis.diagnose
 
 from __future__ import annotations
 
-from .run import diagnose, diagnose_files
+from .from_files import diagnose_files
+from .run import diagnose
 
 __all__ = ["diagnose", "diagnose_files"]

@@ -13,12 +13,67 @@ levels) is reused where the models coincide. Pure numpy: no I/O.
 
 from __future__ import annotations
 
-from typing import Sequence
+from dataclasses import dataclass
+from typing import Mapping, Sequence
 
 import numpy as np
 
 from . import crossval, selection
-from .parts import Mechanics, TrialEffect, TrialSelection
+from .parts import Mechanics
+
+
+@dataclass(frozen=True)
+class TrialEffect:
+    """One effect a trial's own selection chose (:mod:`limbstiff.diagnosis.per_trial`).
+
+    Parameters
+    ----------
+    effect : str
+    step : int
+        The step of the trial's own selection that added it (from 1).
+    shrink_heldout : float
+        Share of the trial's held-out gap, with the effects chosen before it, that it removes.
+    share_of_nominal_gap : float
+        The same gain as a share of the trial's nominal held-out gap.
+    params : Mapping of str to float or None
+        Its parameters fitted on the trial with every effect chosen for it (SI units).
+    units : Mapping of str to str
+        The unit of each parameter.
+    """
+
+    effect: str
+    step: int
+    shrink_heldout: float
+    share_of_nominal_gap: float
+    params: Mapping[str, float | None]
+    units: Mapping[str, str]
+
+
+@dataclass(frozen=True)
+class TrialSelection:
+    """One trial's own selection, made on it alone beside the pooled one.
+
+    Parameters
+    ----------
+    trial : str
+    diagnosis : tuple of str
+        The effects the trial's own selection chose, in the order added.
+    agrees : bool
+        The same effects as the pooled diagnosis (the order is not compared).
+    effects : tuple of TrialEffect
+        Each of them with its held-out shrink and parameters.
+    gap_heldout : float
+        The nominal model's held-out gap on the trial alone (its own blocks).
+    shrink_heldout : float or None
+        1 − the held-out gap with all its effects over the nominal one (None when that is 0).
+    """
+
+    trial: str
+    diagnosis: tuple[str, ...]
+    agrees: bool
+    effects: tuple[TrialEffect, ...]
+    gap_heldout: float
+    shrink_heldout: float | None
 
 
 def chosen_fits(sel: selection.Selection) -> list:

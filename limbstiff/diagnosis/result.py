@@ -1,22 +1,27 @@
 """The outcome of a diagnosis as first-class objects: :class:`Diagnosis` and its :class:`Candidate`
-effects (the typed parts they hold: :mod:`limbstiff.diagnosis.parts`).
+effects (the typed parts they hold: :mod:`limbstiff.diagnosis.parts`; a trial's own selection:
+:mod:`limbstiff.diagnosis.per_trial`).
 
 ``Diagnosis.to_dict()`` is the content of ``diagnosis.json`` (docs/interface.md section 5: keys
 ``gap`` {metric, train, heldout}, ``where``, ``candidates`` [{effect, params, gap_train,
 gap_heldout, shrink_heldout, evidence, …}] and ``diagnosis``): the one place the parts become
-dicts, a part's fields named as its JSON keys (:func:`jsonable`). ``Diagnosis.plot(path)`` hands
-the PDF over to :mod:`limbstiff.report.diagnosis`.
+dicts, a part's fields named as its JSON keys (:func:`jsonable`). Like every result of the package
+it answers ``to_dict()``, ``to_frame()`` (the candidates' table), ``plot(ax=…)`` (the candidates'
+held-out shrinkage, :func:`limbstiff.report.axes_diagnosis.plot_candidates`) and ``report()`` (in
+words); ``Diagnosis.write_pdf(path)`` hands ``diagnosis.pdf`` over to :mod:`limbstiff.report.diagnosis`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from os import PathLike
 from typing import TYPE_CHECKING, Mapping
 
 from ..files.outputs import jsonable
 from ..provenance import software
 from .parts import (After, Evidence, HeldOut, Mechanics, NotTried, Settings, Step, StiffnessBias, TrialInfo,
-                    TrialSelection, TrialStiffness)
+                    TrialStiffness)
+from .per_trial import TrialSelection
 
 if TYPE_CHECKING:
     from .residual import TrialSeries, Where
@@ -36,6 +41,8 @@ UNITS = {
     "stiffness_bias.nominal": "N·m/rad", "stiffness_bias.corrected": "N·m/rad",
     "where.frequency.residual_psd": "(N·m)²/Hz", "where.frequency.torque_psd": "(N·m)²/Hz",
 }
+#: The stiffness's unit in :meth:`Diagnosis.report` (N/m on a translational joint, as :data:`UNITS`).
+UNIT = UNITS["trials.stiffness_median"]
 
 
 @dataclass(frozen=True)
@@ -185,7 +192,58 @@ class Diagnosis:
             "software": software(),
         })
 
-    def plot(self, path) -> None:
+    def to_frame(self):
+        """The candidates as a :class:`pandas.DataFrame`, one row each in :attr:`candidates`' order:
+        ``effect``, ``tried``, ``chosen``, ``gap_train``, ``gap_heldout`` (fractions of the torque's
+        variance), ``shrink_heldout`` with ``shrink_lo``, ``shrink_hi`` (its interval),
+        ``p_adjusted`` (NaN when not tried) and ``stiffness_bias`` (the median relative change,
+        nominal/corrected − 1; NaN when not measured)."""
+        import pandas as pd
+
+        def row(c: Candidate) -> dict:
+            bias = None if c.stiffness_bias is None else c.stiffness_bias.median_relative
+            return {"effect": c.effect, "tried": c.evidence.tried, "chosen": c.effect in self.diagnosis,
+                    "gap_train": c.gap_train, "gap_heldout": c.gap_heldout, "shrink_heldout": c.shrink_heldout,
+                    "shrink_lo": c.shrink_interval[0], "shrink_hi": c.shrink_interval[1],
+                    "p_adjusted": c.evidence.p_adjusted if c.evidence.tried else float("nan"),
+                    "stiffness_bias": float("nan") if bias is None else bias}
+        return pd.DataFrame([row(c) for c in self.candidates])
+
+    def plot(self, ax=None):
+        """Draw the candidates' held-out shrinkage with their intervals into a matplotlib axes
+        (:func:`limbstiff.report.axes_diagnosis.plot_candidates`); returns the axes. (The PDF, which
+        ``plot(path)`` wrote before, is :meth:`write_pdf`.)"""
+        if isinstance(ax, (str, PathLike)):
+            raise TypeError(f"Diagnosis.plot draws into a matplotlib axes; write {ax} with write_pdf(path)")
+        from ..report.axes_diagnosis import plot_candidates
+        return plot_candidates(self, ax=ax)
+
+    @property
+    def headline(self) -> str:
+        """The held-out gap and the effects found, in one line (what ``limbstiff diagnose`` prints)."""
+        found = ", ".join(self.diagnosis) if self.diagnosis else "none (the nominal model explains the data)"
+        return f"gap {100 * self.gap_heldout:.2f} % held out; effects: {found}"
+
+    def report(self) -> str:
+        """The diagnosis in words: the gap and the effects found, how far they shrink it, each
+        trial's stiffness with them in the model, then disagreements, ambiguities and warnings."""
+        from ..digest import interval_text
+        lines = [self.headline + f" (noise floor {100 * self.noise_floor:.2f} %)."]
+        if self.diagnosis and self.after.shrink_heldout is not None:
+            lo, hi = self.after.shrink_heldout_interval
+            lines.append(f"With them the held-out gap is {100 * self.after.gap_heldout:.2f} %: "
+                         f"{100 * self.after.shrink_heldout:.0f} % of it removed [{100 * lo:.0f}, {100 * hi:.0f}].")
+        for s in self.stiffness:
+            with_effects = ("" if s.with_effects is None
+                            else f"; with {', '.join(s.effects)} in the model {interval_text(s.with_effects, UNIT)}")
+            lines.append(f"{s.trial}: stiffness {interval_text(s.reported, UNIT)}{with_effects}"
+                         + (f" ({s.note})" if s.note else ""))
+        lines += [f"{a.effects[0]} and {a.effects[1]} cannot be told apart: {a.reason}; separate them by "
+                  f"{a.separate_by}" for a in self.ambiguities]
+        lines += [f"warning: {w}" for w in (*self.disagreements, *self.warnings)]
+        return "\n".join(lines)
+
+    def write_pdf(self, path) -> None:
         """Write ``diagnosis.pdf`` (see :func:`limbstiff.report.diagnosis.write_diagnosis_report`)."""
         from ..report.diagnosis import write_diagnosis_report
         write_diagnosis_report(self, path)

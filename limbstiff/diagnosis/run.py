@@ -3,7 +3,7 @@
 :func:`diagnose` analyses each trial (the nominal model: m and b given or identified, the
 stiffness course), fits and judges every candidate effect held out, selects the ones
 responsible and measures how much each biases the stiffness. :func:`diagnose_files` reads the
-trial files and writes ``diagnosis.json`` and ``diagnosis.pdf``.
+trial files and writes ``diagnosis.json`` and ``diagnosis.pdf`` (:mod:`.from_files`).
 """
 
 from __future__ import annotations
@@ -11,7 +11,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -19,9 +18,8 @@ import numpy as np
 from ..blas_threads import one_blas_thread
 from ..analysis import analyze
 from ..settings import range_of_motion
-from ..errors import LimbstiffError, TrialError
+from ..errors import TrialError
 from ..protocol import MODEL_EFFECTS, Protocol
-from ..result import StiffnessResult
 from ..trial import Trial
 from . import crossval, nominal, residual, selection
 from .bias import analysis_stiffness, stiffness_change
@@ -91,17 +89,9 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     """
     # the nominal model holds no effect: those the protocol puts in the model are candidates like any other
     protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping, effects=())
-    trials = list(trials)
-    results = list(results) if results is not None else [analyze(t, protocol, seed=seed) for t in trials]
-    # an ensemble's analysis runs on its whole cycles less their ensemble mean, the curve's torque
-    # taken off: the gap diagnosed is the one its model leaves (result.trial is that trial)
-    originals, trials = trials, [r.trial if r.curve is not None else t for t, r in zip(trials, results)]
-    channels = [channels_from(t, r) for t, r in zip(trials, results)]
+    originals, trials, results, channels = _analysed(trials, protocol, seed, results)
     effects, library_notes = candidate_library(channels, effects)
-    try:
-        problem = crossval.build_problem(channels, blocks=blocks)
-    except ValueError as exc:
-        raise TrialError(str(exc).split(":")[0], str(exc).split(":", 1)[1].strip()) from None
+    problem = _problem(channels, blocks)
     rng = np.random.default_rng(seed)
     run = _Run(trials, results, channels, protocol, seed, problem, selection.select(problem, effects, rng=rng),
                originals)
@@ -111,22 +101,45 @@ def diagnose(trials: Sequence[Trial], protocol: Protocol | None = None, *, seed:
     after = _after(run, rng)
     series = residual.series(problem, run.sel.nominal, run.sel.final if run.chosen else None)
     trials_info = _trials_info(run)
-    floor = float(np.average([t.noise_floor for t in trials_info],
-                             weights=[np.sum(problem.deviation[problem.trial == i] ** 2) for i in range(len(trials))]))
-    notes = library_notes + [f"{orig} was fitted at the narrowest loop its grid allows and is named {name}: a "
-                             f"friction whose presliding compliance shows (see selection._at_limit); not tried "
-                             "again" for orig, name in run.sel.named_as.items()] + _notes(channels)
     alone = trial_selections(trials, channels, effects, pooled=tuple(run.chosen), seed=seed, blocks=blocks,
                              cache=problem.cache)
     return Diagnosis(trials=tuple(trials_info), metric=nominal.METRIC,
                      gap_train=float(run.sel.nominal.rss_train) / run.den, gap_heldout=run.nominal_heldout / run.den,
-                     noise_floor=floor, heldout=_heldout(problem), where={n: s.where for n, s in series.items()},
-                     candidates=tuple(candidates),
+                     noise_floor=_noise_floor(problem, trials_info), heldout=_heldout(problem),
+                     where={n: s.where for n, s in series.items()}, candidates=tuple(candidates),
                      diagnosis=tuple(run.chosen), steps=tuple(_steps(run)), ambiguities=tuple(run.sel.ambiguities),
-                     after=after, settings=_settings(protocol.ci_level), notes=tuple(notes),
+                     after=after, settings=_settings(protocol.ci_level), notes=tuple(library_notes + _notes(run)),
                      warnings=tuple(w for r in results for w in r.warnings), seed=seed, series=series,
                      per_trial=alone, disagreements=disagreements(tuple(run.chosen), alone),
                      stiffness=_stiffness_with_effects(run))
+
+
+def _analysed(trials: Sequence[Trial], protocol: Protocol, seed: int, results: Sequence | None
+              ) -> tuple[list, list, list, list]:
+    """The trials given, those their analyses ran on, the analyses (made when not given) and each
+    trial's channels. An ensemble's analysis runs on its whole cycles less their ensemble mean, the
+    curve's torque taken off: the gap diagnosed is the one its model leaves (``result.trial``)."""
+    originals = list(trials)
+    results = list(results) if results is not None else [analyze(t, protocol, seed=seed) for t in originals]
+    trials = [r.trial if r.curve is not None else t for t, r in zip(originals, results)]
+    return originals, trials, results, [channels_from(t, r) for t, r in zip(trials, results)]
+
+
+def _problem(channels: list, blocks: int) -> crossval.Problem:
+    """The held-out problem of the pooled trials (:func:`crossval.build_problem`); a trial too short
+    for it is a :class:`TrialError` naming it."""
+    try:
+        return crossval.build_problem(channels, blocks=blocks)
+    except ValueError as exc:
+        raise TrialError(str(exc).split(":")[0], str(exc).split(":", 1)[1].strip()) from None
+
+
+def _noise_floor(problem: crossval.Problem, trials_info: list[TrialInfo]) -> float:
+    """The gap white sensor noise alone would leave, over the pooled trials: each trial's floor
+    weighted by its share of Σ (f − f̄)²."""
+    return float(np.average([t.noise_floor for t in trials_info],
+                            weights=[np.sum(problem.deviation[problem.trial == i] ** 2)
+                                     for i in range(len(trials_info))]))
 
 
 @dataclass(frozen=True)
@@ -341,11 +354,16 @@ def _settings(level: float) -> Settings:
                          "step it is added (see limbstiff.diagnosis.selection.RELEVANCE)")
 
 
-def _notes(channels) -> list[str]:
-    rom = max(range_of_motion(c.angle) for c in channels)
+def _notes(run: _Run) -> list[str]:
+    """What the diagnosis says besides its findings: an effect renamed at its grid's limit, and why
+    gravity and sensor drift are held by the nominal model."""
+    renamed = [f"{orig} was fitted at the narrowest loop its grid allows and is named {name}: a friction whose "
+               "presliding compliance shows (see selection._at_limit); not tried again"
+               for orig, name in run.sel.named_as.items()]
+    rom = max(range_of_motion(c.angle) for c in run.channels)
     half = 0.5 * rom
     curv = abs(1.0 - np.sin(half) / half) if half > 0 else 0.0
-    return [f"gravity: over the range of motion (±{half:.3g} rad) sin(y) departs from a straight line by "
+    return renamed + [f"gravity: over the range of motion (±{half:.3g} rad) sin(y) departs from a straight line by "
             f"{100 * curv:.2g} % at most; a torque that depends on the angle alone is a stiffness (the paper's "
             "generalized stiffness includes −mgl·cos θ) and the time-varying stiffness takes it up, so gravity can "
             "hardly be told from stiffness in these data; separate them by repeating the trial at another operating "
@@ -353,103 +371,3 @@ def _notes(channels) -> list[str]:
             "sensor drift: a slow drift of the torque offset is a walk of the elastic torque, which the model holds "
             "(its torque walk Q_s), so it is not a separate effect; separate them with zero-load recordings before "
             "and after the trial"]
-
-
-@dataclass(frozen=True)
-class DiagnoseReport:
-    """Outcome of :func:`diagnose_files`.
-
-    Parameters
-    ----------
-    diagnosis : Diagnosis or None
-        None when no trial could be diagnosed.
-    out : Path
-    failed : tuple of str
-        One line per trial that could not be read or analysed.
-    files : tuple of str
-        Files written.
-    """
-
-    diagnosis: Diagnosis | None
-    out: Path
-    failed: tuple = ()
-    files: tuple = ()
-
-    @property
-    def exit_status(self) -> int:
-        """0 when every trial is done, 1 when some (or all) failed (docs/interface.md section 2)."""
-        return 1 if self.failed or self.diagnosis is None else 0
-
-
-@dataclass(frozen=True)
-class AnalysedTrial:
-    """One trial read and analysed in a worker, returned to the process that diagnoses."""
-
-    trial: Trial
-    result: StiffnessResult
-
-
-def _read_and_analyze(job) -> AnalysedTrial:
-    """Read and analyse one trial file (a :class:`~limbstiff.batch.runner.BatchJob` whose options
-    are a :class:`~limbstiff.batch.jobs.JobOptions`: its protocol and seed; nothing is written)."""
-    from ..batch.jobs import read_job_trial
-    trial = read_job_trial(job, job.options.protocol)
-    return AnalysedTrial(trial, analyze(trial, job.options.protocol, seed=job.options.seed))
-
-
-def diagnose_files(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-diagnose",
-                   seed: int = 0, inertia: float | None = None, damping: float | None = None, jobs: int = 1,
-                   executor=None, progress=None, pdf: bool = True) -> DiagnoseReport:
-    """Read the trials named by ``paths``, diagnose them together, write the outputs.
-
-    Writes ``OUT/diagnosis.json`` and, with ``pdf``, ``OUT/diagnosis.pdf`` (docs/interface.md section
-    5), atomically; without it, a ``diagnosis.pdf`` of an earlier run is removed (it would not match).
-    A trial that cannot be read or analysed is left out with a one-line reason (``failed``);
-    the others are still diagnosed. The trials are read and analysed in ``jobs`` processes (or on
-    ``executor``, e.g. a dask cluster's: each trial and its analysis return to this process, which
-    writes the diagnosis) by the batch's runner (:func:`limbstiff.batch.runner.run_jobs`);
-    ``progress(outcome, done, total)`` is called after each.
-
-    Raises
-    ------
-    batch.NothingToDo
-        When no trial file is found (a path that matches nothing, among others, is a failed
-        trial).
-    batch.discovery.OutputFolderError
-        When ``out`` cannot be written (checked before any trial runs).
-    """
-    from ..batch.discovery import NothingToDo, discover, output_names, writable_folder
-    from ..batch.jobs import JobOptions
-    from ..batch.runner import BatchJob, run_jobs, run_one
-    from ..files.outputs import write_json
-
-    protocol = (protocol or Protocol()).override(inertia=inertia, damping=damping, effects=())   # as diagnose's
-    missing: list[tuple[str, str]] = []
-    files = discover(paths, missing=missing)
-    if not files:
-        raise NothingToDo("; ".join(why for _, why in missing))
-    out = writable_folder(out)                  # before any trial is read
-    names, _ = output_names(files)
-    work = [BatchJob(source=f, name=n, out=Path(out), options=JobOptions(protocol, seed))
-            for f, n in zip(files, names)]
-    outcomes = run_jobs(work, functools.partial(run_one, analyse_and_write=_read_and_analyze), n_jobs=jobs,
-                        executor=executor, progress=progress)
-    done = [o.row for o in outcomes if o.status == "ok"]
-    trials, results = [r.trial for r in done], [r.result for r in done]
-    failed = [o.error for o in outcomes if o.status != "ok"] + [why for _, why in missing]
-    if not trials:
-        return DiagnoseReport(None, out, tuple(failed))
-    try:
-        diag = diagnose(trials, protocol, seed=seed, results=results)
-    except LimbstiffError as exc:
-        return DiagnoseReport(None, out, tuple(failed) + (" ".join(str(exc).split()),))
-    out.mkdir(parents=True, exist_ok=True)
-    data = diag.to_dict()
-    data["failed"] = list(failed)
-    write_json(out / "diagnosis.json", data)
-    if pdf:
-        diag.plot(out / "diagnosis.pdf")
-    elif (out / "diagnosis.pdf").exists():
-        (out / "diagnosis.pdf").unlink()
-    written = (str(out / "diagnosis.json"),) + ((str(out / "diagnosis.pdf"),) if pdf else ())
-    return DiagnoseReport(diag, out, tuple(failed), written)

@@ -106,7 +106,7 @@ def write_result(result, directory: str | Path, *, extra: dict | None = None) ->
     if getattr(result, "curve", None) is not None:
         frame = result.curve.curve.to_frame()
         write_csv(directory / CURVE_CSV[result.curve.against], _rounded({c: frame[c].to_numpy() for c in frame}))
-    summary = result.summary()
+    summary = result.to_dict()
     if extra:
         summary.update(extra)
     write_json(directory / SUMMARY_JSON, summary)

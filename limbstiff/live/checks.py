@@ -16,32 +16,27 @@ Over the last :data:`WINDOW_PERIODS` motion periods of model steps (at least :da
   prediction errors proportional to the angle's increments, e ≈ (σ − σ̂)·Δy: their least-squares
   slope on Δy over the window, β, is what the estimate misses. |β| over the band's median
   half-width and over :data:`TRACKING_Z` standard errors (√(ΣS·Δy²)/ΣΔy², the errors independent
-  with variance S) is ``caution``: the estimate lags and its band is too narrow there. On the
-  simulated elbow's ramp (6 → 30 N·m/rad over 14 s) β reached 1.4–1.9 half-widths at z = 2–6,
-  and stayed below 0.6 half-widths where the stiffness held still;
+  with variance S) is ``caution``: the estimate lags and its band is too narrow there;
 * changing — the estimate has moved by more than its band's half-width over its memory (two
   motion periods): the stiffness is changing, and a causal estimate lags a change by a good part of
-  its memory, which its band does not hold: ``caution``. On replays of limbstiff's simulated elbow,
-  wrist and ankle the band held the truth on 70–94 % of the samples said ``ok`` before this check
-  and on 94–95 % after it; it does not help where the live model itself is off (the independent
-  simulator's co-contraction, gait and actuator courses: 34–61 %);
+  its memory, which its band does not hold: ``caution``. It cannot help where the live model itself
+  is off;
 * hindsight — each identification and noise refit also smooths its record as the offline
   analysis does (zero-phase filtered, the identification's m, b and noise levels), which does not
   lag. Over one checks window (:func:`window_s`) ending a memory and the filter's edge before its
   record's end, the share of the informed published samples whose band missed that smoothed
   course is compared with what a calibrated band allows (:attr:`Hindsight.limit`); above it,
   ``caution`` until a later look back says otherwise: the band has been too narrow. It looks back
-  (by the memory and the edge, and the refit's spacing), which no causal check can. On
-  limbstiff's simulated elbow ramp (6 → 30 N·m/rad from 8 to 22 s) the band missed the smoothed
-  course on 58–90 % of the window's samples from 14 to 20 s (limit 48 %), and on 0–2 % once the
-  window had left the ramp; 0 % on the independent simulator's constant elbows. Where the smoother
-  is off as well (the independent co-contraction and gait courses) it cannot tell, and a slow
-  motion (0.24 Hz: a 42 s window and 8 s memory) leaves a short record no look back at all;
+  (by the memory and the edge, and the refit's spacing), which no causal check can; where the
+  smoother is off as well it cannot tell, and a slow motion (a long window and memory) leaves a
+  short record no look back at all;
 * the band — median width over |median stiffness| above :data:`~limbstiff.checks.verdict.BAND_WIDTH_MAX`
   is ``caution``, above :data:`~limbstiff.checks.verdict.BAND_ZERO_MAX` ``unreliable``; a share of
   negative stiffness above :data:`~limbstiff.checks.verdict.NEGATIVE_SHARE_MAX` is ``unreliable``.
 
-The offline analysis run on the recording when the session ends makes every check. Pure numpy.
+The offline analysis run on the recording when the session ends makes every check. How often the
+band holds the truth on the samples said ``ok``, with and without these checks, and where they fall
+short: benchmarks/RESULTS.md#live (read in docs/benchmarks.md#live). Pure numpy.
 """
 
 from __future__ import annotations
@@ -210,6 +205,44 @@ def _tracking(innovation, innovation_variance, angle, half_width) -> tuple[float
     return abs(beta) / half_width, abs(beta) / se if se > 0 else float("inf")
 
 
+def _moved(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, memory: int | None) -> float:
+    """How far the estimate moved over its ``memory`` (model steps), in band half-widths now (NaN
+    when not measurable: no memory given, the window shorter, or the band empty)."""
+    if memory is not None and 0 < memory < len(stiffness):
+        half_now = 0.5 * (hi[-1] - lo[-1])
+        if half_now > 0 and np.isfinite(stiffness[-1 - memory]):
+            return abs(stiffness[-1] - stiffness[-1 - memory]) / half_now
+    return float("nan")
+
+
+def _severity(*, motion: float, explained: float, tracking: float, z: float, moved: float,
+              looked_back: Hindsight | None, white: float, width: float, negative: float) -> dict[str, Verdict]:
+    """The failed checks' severities, by name, in the order :attr:`LiveChecks.failed` lists them
+    (the figures as :func:`live_checks` measures them; a NaN fails nothing)."""
+    severity = {}
+    if motion < MOTION_MIN:
+        severity["motion"] = CAUTION
+    if explained < HELDOUT_UNRELIABLE:
+        severity["torque_explained"] = UNRELIABLE
+    elif explained < HELDOUT_CAUTION:
+        severity["torque_explained"] = CAUTION
+    if tracking > 1.0 and z > TRACKING_Z:
+        severity["tracking"] = CAUTION
+    if moved > 1.0:
+        severity["changing"] = CAUTION
+    if looked_back is not None and looked_back.too_narrow:
+        severity["hindsight"] = CAUTION
+    if white > WHITENESS_MAX and not explained > 1.0 - NEGLIGIBLE_RESIDUAL:
+        severity["noise"] = CAUTION
+    if width > BAND_ZERO_MAX:
+        severity["band_width"] = UNRELIABLE
+    elif width > BAND_WIDTH_MAX:
+        severity["band_width"] = CAUTION
+    if negative > NEGATIVE_SHARE_MAX:
+        severity["negative_stiffness"] = UNRELIABLE
+    return severity
+
+
 def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observable: np.ndarray,
                 innovation: np.ndarray, innovation_variance: np.ndarray, measured: np.ndarray,
                 angle: np.ndarray, *, memory: int | None = None, looked_back: Hindsight | None = None) -> LiveChecks:
@@ -246,32 +279,9 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
     explained = 1.0 - float(innovation @ innovation) / spread if spread > 0 else float("nan")
     white = _whiteness(innovation / np.sqrt(innovation_variance)) if len(innovation) else float("nan")
     tracking, z = _tracking(innovation, innovation_variance, angle, 0.5 * width * abs(median))
-    moved = float("nan")
-    if memory is not None and 0 < memory < len(stiffness):
-        half_now = 0.5 * (hi[-1] - lo[-1])
-        if half_now > 0 and np.isfinite(stiffness[-1 - memory]):
-            moved = abs(stiffness[-1] - stiffness[-1 - memory]) / half_now
-    severity = {}
-    if motion < MOTION_MIN:
-        severity["motion"] = CAUTION
-    if explained < HELDOUT_UNRELIABLE:
-        severity["torque_explained"] = UNRELIABLE
-    elif explained < HELDOUT_CAUTION:
-        severity["torque_explained"] = CAUTION
-    if tracking > 1.0 and z > TRACKING_Z:
-        severity["tracking"] = CAUTION
-    if moved > 1.0:
-        severity["changing"] = CAUTION
-    if looked_back is not None and looked_back.too_narrow:
-        severity["hindsight"] = CAUTION
-    if white > WHITENESS_MAX and not explained > 1.0 - NEGLIGIBLE_RESIDUAL:
-        severity["noise"] = CAUTION
-    if width > BAND_ZERO_MAX:
-        severity["band_width"] = UNRELIABLE
-    elif width > BAND_WIDTH_MAX:
-        severity["band_width"] = CAUTION
-    if negative > NEGATIVE_SHARE_MAX:
-        severity["negative_stiffness"] = UNRELIABLE
+    moved = _moved(stiffness, lo, hi, memory)
+    severity = _severity(motion=motion, explained=explained, tracking=tracking, z=z, moved=moved,
+                         looked_back=looked_back, white=white, width=width, negative=negative)
     verdict = Verdict.worst(severity.values())
     return LiveChecks(motion=motion, explained=explained, tracking=tracking, moved=moved, whiteness=white, band_width=width,
                       negative_share=negative, hindsight=looked_back, verdict=verdict, failed=tuple(severity))

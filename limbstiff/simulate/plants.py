@@ -206,7 +206,12 @@ def _rk4_steps(out: tuple, inv_m: float, f: Callable, tau: list, rate: Callable 
     ys, vs, acc, zs = out
     n_steps = len(ys) - 1
     hh, h6, h8 = 0.5 * h, h / 6.0, h / 8.0
-    z = r1 = r2 = r3 = r4 = vd1 = vd2 = vd4 = 0.0
+    z = vd1 = vd2 = vd4 = 0.0
+
+    def slope(j: int, y: float, v: float, z: float, vd: float) -> tuple[float, float]:
+        """ÿ and ż at half step ``j`` of the state (y, v, z), the delayed velocity ``vd``."""
+        return (tau[j] - f(j, y, v, z, vd)) * inv_m, 0.0 if rate is None else rate(y, v, z)
+
     for i in range(n_steps):
         k = 2 * i
         ys[i], vs[i], zs[i] = y, v, z
@@ -214,22 +219,14 @@ def _rk4_steps(out: tuple, inv_m: float, f: Callable, tau: list, rate: Callable 
             vd1 = _delayed_velocity(vs, acc, h8, k - D)
             vd2 = _delayed_velocity(vs, acc, h8, k + 1 - D)
             vd4 = _delayed_velocity(vs, acc, h8, k + 2 - D)
-        a1 = (tau[k] - f(k, y, v, z, vd1)) * inv_m
+        a1, r1 = slope(k, y, v, z, vd1)
         acc[i] = a1
-        if rate is not None:
-            r1 = rate(y, v, z)
         y2, v2, z2 = y + hh * v, v + hh * a1, z + hh * r1
-        a2 = (tau[k + 1] - f(k + 1, y2, v2, z2, vd2)) * inv_m
-        if rate is not None:
-            r2 = rate(y2, v2, z2)
+        a2, r2 = slope(k + 1, y2, v2, z2, vd2)
         y3, v3, z3 = y + hh * v2, v + hh * a2, z + hh * r2
-        a3 = (tau[k + 1] - f(k + 1, y3, v3, z3, vd2)) * inv_m
-        if rate is not None:
-            r3 = rate(y3, v3, z3)
+        a3, r3 = slope(k + 1, y3, v3, z3, vd2)
         y4, v4, z4 = y + h * v3, v + h * a3, z + h * r3
-        a4 = (tau[k + 2] - f(k + 2, y4, v4, z4, vd4)) * inv_m
-        if rate is not None:
-            r4 = rate(y4, v4, z4)
+        a4, r4 = slope(k + 2, y4, v4, z4, vd4)
         y += h6 * (v + 2.0 * (v2 + v3) + v4)
         v += h6 * (a1 + 2.0 * (a2 + a3) + a4)
         z += h6 * (r1 + 2.0 * (r2 + r3) + r4)

@@ -1,0 +1,126 @@
+"""The stiffness curve of an analysis as a result: :class:`CurveAnalysis` and how it is made.
+
+:func:`curve_analysis` pools the analysis's course into the curve against the cycle's phase or a
+recorded schedule (:func:`limbstiff.scheduled.curve.schedule_curve`), with its band and its checks.
+The result answers the protocol every result of the package answers: ``to_dict()`` (the
+``by_phase`` / ``by_schedule`` block of ``summary.json``), ``to_frame()``
+(``stiffness_by_phase.csv`` / ``stiffness_by_schedule.csv``), ``plot(ax=…)`` and ``report()``. It
+lives above the maths of :mod:`limbstiff.scheduled` (which draws nothing) so that its ``plot`` may
+hand off to :func:`limbstiff.report.curve.plot_curve`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .checks.verdict import Check
+from .files.outputs import jsonable
+from .scheduled.checks import disagree_check, heldout_check, motion_check, unit_errors
+from .scheduled.curve import ScheduleCurve, schedule_curve
+from .scheduled.fit import ScheduleTerms
+from .scheduled.prepare import ScheduleInput
+from .scheduled.resolution import Resolution
+from .statespace.linear import innovations
+
+#: Steps at the start of the record whose prediction errors are not compared: the filter starts
+#: from its diffuse state there.
+GUARD_STEPS = 20
+
+__all__ = ["CurveAnalysis", "curve_analysis"]
+
+
+@dataclass(frozen=True)
+class CurveAnalysis:
+    """The stiffness against the phase or the schedule, how it was made, and its checks.
+
+    Parameters
+    ----------
+    curve : ScheduleCurve
+    resolution : Resolution
+    prepared : dict
+        How the cycles were cut or the schedule read (:meth:`ScheduleInput.to_dict`).
+    checks : tuple of Check
+    u : ndarray, shape (n,)
+        The phase or the schedule at every sample of the (cropped) trial.
+    """
+
+    curve: ScheduleCurve
+    resolution: Resolution
+    prepared: dict
+    checks: tuple[Check, ...]
+    u: np.ndarray
+
+    def binned(self, values: np.ndarray, informed: np.ndarray) -> np.ndarray:
+        """The mean of ``values`` (n,) over the ``informed`` samples in each of the curve's bins
+        (a reference stiffness on the curve's axis), NaN where a bin has none."""
+        edges = self.curve.edges
+        ok = informed & np.isfinite(self.u)
+        which = np.clip(np.searchsorted(edges, self.u[ok], side="right") - 1, 0, len(edges) - 2)
+        count = np.bincount(which, minlength=len(edges) - 1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.bincount(which, weights=np.asarray(values)[ok], minlength=len(edges) - 1) / count
+
+    @property
+    def against(self) -> str:
+        return self.curve.against
+
+    def to_dict(self) -> dict:
+        """JSON-ready (``by_phase`` / ``by_schedule`` of ``summary.json``)."""
+        return jsonable({**self.curve.to_dict(), "resolution": self.resolution.to_dict(), **self.prepared})
+
+    def to_frame(self):
+        """The curve's table (``stiffness_by_phase.csv`` / ``stiffness_by_schedule.csv``) as a
+        :class:`pandas.DataFrame` (:meth:`ScheduleCurve.to_frame`)."""
+        return self.curve.to_frame()
+
+    def plot(self, ax=None, *, unit_stiffness: str = "N·m/rad", legend: bool = True):
+        """Draw the curve, its band and (ensembles) the cycles' spread into a matplotlib axes
+        (:func:`limbstiff.report.curve.plot_curve`); pyplot's current axes when ``ax`` is omitted.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        from .report.curve import plot_curve
+        return plot_curve(self.curve, ax=ax, unit_stiffness=unit_stiffness, legend=legend)
+
+    def report(self, *, unit_stiffness: str = "N·m/rad") -> str:
+        """The curve in words: what it is pooled over, its resolution, its median and range over
+        the informed bins, and its checks."""
+        from .digest import number
+        d, res = self.curve.to_dict(), self.resolution
+        units = "cycles" if self.against == "phase" else "stretches"
+        over = (f"{self.prepared.get('n_cycles')} cycles ({self.prepared.get('how')})" if self.against == "phase"
+                else str(self.prepared.get("how")))
+        knots = (f"{res.chosen} knots" if res.chosen
+                 else f"none finer than the walk (no curve predicted left-out {units} better)")
+        level = f"{d['informed_bins']} of {d['bins']} bins informed"
+        figures = ("no bin is informed" if d["median"] is None else
+                   f"median {number(d['median'], unit_stiffness)}, from {number(d['min'])} to "
+                   f"{number(d['max'], unit_stiffness)} ({level})")
+        lines = [f"Stiffness by {'phase of the cycle' if self.against == 'phase' else 'schedule'}, pooled over "
+                 f"{over}: {figures}.", f"Resolution: {knots}, chosen by predicting left-out {units}."]
+        lines += [f"{c.name}: {'ok' if c.passed else 'FAILED'}: {c.message}" for c in self.checks]
+        return "\n".join(lines)
+
+
+def curve_analysis(prepared: ScheduleInput, terms: ScheduleTerms, estimate, ident, *, observable: np.ndarray,
+                   stiffness: np.ndarray, level: float, seed: int) -> CurveAnalysis:
+    """The curve pooled from the analysis's course, its band, and its checks."""
+    curve = schedule_curve(estimate, ident, against=prepared.against, u=prepared.u, cycle=prepared.cycle,
+                           observable=observable, stiffness=stiffness, level=level, unit=prepared.unit,
+                           knots=terms.basis.knots, rng=np.random.default_rng([seed, 36]))
+    noun = "cycles" if prepared.against == "phase" else "stretches"
+    score = terms.resolution.score_of(terms.resolution.chosen)
+    starts = None
+    if prepared.cycle is not None:
+        t = prepared.trial.time
+        starts = np.array([t[np.flatnonzero(prepared.held_out == k)[0]] for k in range(prepared.n_cycles)])
+    e, var = innovations(estimate.steps, estimate.fit.noise)
+    unit = prepared.held_out[estimate.steps.index].copy()
+    unit[:GUARD_STEPS] = -1                       # the filter's diffuse start
+    errors = unit_errors(e[0], var, unit)
+    checks = (heldout_check(score, noun=noun), disagree_check(errors, noun=noun, first_s=starts), motion_check(curve))
+    return CurveAnalysis(curve, terms.resolution, prepared.to_dict(), checks, prepared.u)
