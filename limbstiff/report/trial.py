@@ -49,7 +49,7 @@ def report_figures(result) -> list:
     Returns
     -------
     list of matplotlib.figure.Figure
-        A4 portrait pages; axes holding only text have gid ``"text-panel"``.
+        A4 portrait pages; the texts of text panels have gid ``"text-panel"``.
     """
     with style():
         figures = [fig for fig in (page(result) for page in PAGES) if fig is not None]
