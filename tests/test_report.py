@@ -471,3 +471,31 @@ def test_text_panel_is_the_pages_text_from_the_top_of_its_box():
     down = 2.0 * FONT["heading"] / 72 * fig.dpi
     np.testing.assert_allclose(at, [(x0, top), (x0, top - down), (x0 + 0.3 * width, top - down)])
     assert all(t.get_va() == "top" for t in texts)
+
+
+def test_fixed_ticks_are_the_ones_drawn_with_their_labels():
+    """fix_ticks keeps the ticks matplotlib draws, labelled as it labels them, and drops those
+    beyond the limits; an axis whose labels need an offset is left to matplotlib."""
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator
+    from limbstiff.report.common import fix_ticks
+
+    def drawn(axis):
+        return [(t.get_loc(), t.label1.get_text()) for t in axis._update_ticks()]
+
+    fig = Figure()
+    ax, log = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
+    ax.plot([0.3, 7.7], [1e6 + 1, 1e6 + 2])
+    ax.set_xlim(0.3, 7.7)
+    ax.xaxis.set_major_locator(MaxNLocator(5))
+    log.loglog([0.3, 400], [1e-4, 2])
+    log.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    with style():
+        before = [drawn(a) for a in (ax.xaxis, log.xaxis, log.yaxis)]
+        assert len(ax.xaxis.get_majorticklocs()) > len(before[0])          # some beyond the limits
+        for axis in (ax.xaxis, ax.yaxis, log.xaxis, log.yaxis):
+            fix_ticks(axis)
+        assert [drawn(a) for a in (ax.xaxis, log.xaxis, log.yaxis)] == before
+    assert len(ax.xaxis.get_majorticklocs()) == len(before[0])
+    assert isinstance(log.yaxis.get_major_locator(), FixedLocator)
+    assert not isinstance(ax.yaxis.get_major_locator(), FixedLocator)     # labels with an offset

@@ -225,12 +225,47 @@ TICK_BINS = 5
 
 def lean_ticks(fig) -> None:
     """At most :data:`TICK_BINS` tick intervals on every linear axis of ``fig`` whose ticks were
-    left to matplotlib (axes that set their own locator keep it)."""
+    left to matplotlib (axes that set their own locator keep it), then every axis's ticks fixed
+    (:func:`fix_ticks`): call it once the page is built, its limits final."""
     from matplotlib.ticker import AutoLocator, MaxNLocator
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
             if axis.get_scale() == "linear" and type(axis.get_major_locator()) is AutoLocator:
                 axis.set_major_locator(MaxNLocator(nbins=TICK_BINS, steps=[1, 2, 2.5, 5, 10]))
+            fix_ticks(axis)
+
+
+def fix_ticks(axis) -> None:
+    """Fix an axis's major ticks to those its locator and formatter give now, within its limits.
+
+    matplotlib locates and formats an axis's ticks again each time it needs their size, three
+    times per axis as a page is drawn, and makes a tick (five artists) for each location its
+    locator gives, most of them one beyond each limit, which are never drawn (profiled: ticks
+    are most of a report's artists). The labels are the formatter's, formatted once over all the
+    locations as matplotlib does; an axis whose labels carry an offset or a common power of ten
+    (drawn apart, at the axis's end) is left as it is.
+
+    Parameters
+    ----------
+    axis : matplotlib.axis.Axis
+        Of an axes whose limits are final.
+    """
+    from matplotlib.ticker import FixedFormatter, FixedLocator
+    locs = np.asarray(axis.get_majorticklocs(), float)
+    if locs.size == 0:
+        return
+    formatter = axis.get_major_formatter()
+    labels = formatter.format_ticks(locs)
+    if formatter.get_offset():
+        return
+    # the ticks matplotlib draws: within the limits, to a tolerance, on the scale's transform
+    transform = axis.get_transform()
+    ends = np.sort(transform.transform(np.asarray(axis.get_view_interval(), float)))
+    at = transform.transform(locs)
+    slack = 1e-9 * (ends[1] - ends[0])
+    keep = np.flatnonzero((at >= ends[0] - slack) & (at <= ends[1] + slack))
+    axis.set_major_locator(FixedLocator(locs[keep]))
+    axis.set_major_formatter(FixedFormatter([labels[k] for k in keep]))
 
 
 def footer(fig, lines: Iterable[str], page: int | None = None, pages: int | None = None) -> None:
