@@ -478,7 +478,7 @@ def test_fixed_ticks_are_the_ones_drawn_with_their_labels():
     beyond the limits; an axis whose labels need an offset is left to matplotlib."""
     from matplotlib.figure import Figure
     from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator
-    from limbstiff.report.common import fix_ticks
+    from limbstiff.report.ticks import fix_ticks
 
     def drawn(axis):
         return [(t.get_loc(), t.label1.get_text()) for t in axis._update_ticks()]

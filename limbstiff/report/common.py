@@ -172,8 +172,7 @@ def text_panel(fig, where, lines: Sequence[tuple[str, str]] | str, *, title: str
     """A panel of text in a box of the page, from its top: a message, or ``key  value`` rows.
 
     The text is the figure's (gid :data:`TEXT_PANEL`), not an axes': an axes is hundreds of
-    artists made and drawn for nothing (profiled: a tenth of a trial report's time for its text
-    panels). Lines are spaced in points (:data:`ROW_SPACING` × the font size), so the text keeps
+    artists, made and drawn for nothing here. Lines are spaced in points (:data:`ROW_SPACING` × the font size), so the text keeps
     its spacing whatever the box's height; a box too short for its text lets it run below its
     bottom edge. A value that wraps takes several lines, its key the first.
 
@@ -215,57 +214,6 @@ def text_panel(fig, where, lines: Sequence[tuple[str, str]] | str, *, title: str
         values += value_lines
     for x, column, weight in ((0, keys, "bold"), (key_width, values, "normal")):
         text(x, down, "\n".join(column), fontsize=fontsize, weight=weight, linespacing=ROW_SPACING)
-
-
-#: Most intervals between labelled ticks on a linear axis: matplotlib's default allows up to 9 on a
-#: page-wide axis; every tick is five artists, made and drawn one by one (profiled: a quarter of a
-#: trial report's time).
-TICK_BINS = 5
-
-
-def lean_ticks(fig) -> None:
-    """At most :data:`TICK_BINS` tick intervals on every linear axis of ``fig`` whose ticks were
-    left to matplotlib (axes that set their own locator keep it), then every axis's ticks fixed
-    (:func:`fix_ticks`): call it once the page is built, its limits final."""
-    from matplotlib.ticker import AutoLocator, MaxNLocator
-    for ax in fig.axes:
-        for axis in (ax.xaxis, ax.yaxis):
-            if axis.get_scale() == "linear" and type(axis.get_major_locator()) is AutoLocator:
-                axis.set_major_locator(MaxNLocator(nbins=TICK_BINS, steps=[1, 2, 2.5, 5, 10]))
-            fix_ticks(axis)
-
-
-def fix_ticks(axis) -> None:
-    """Fix an axis's major ticks to those its locator and formatter give now, within its limits.
-
-    matplotlib locates and formats an axis's ticks again each time it needs their size, three
-    times per axis as a page is drawn, and makes a tick (five artists) for each location its
-    locator gives, most of them one beyond each limit, which are never drawn (profiled: ticks
-    are most of a report's artists). The labels are the formatter's, formatted once over all the
-    locations as matplotlib does; an axis whose labels carry an offset or a common power of ten
-    (drawn apart, at the axis's end) is left as it is.
-
-    Parameters
-    ----------
-    axis : matplotlib.axis.Axis
-        Of an axes whose limits are final.
-    """
-    from matplotlib.ticker import FixedFormatter, FixedLocator
-    locs = np.asarray(axis.get_majorticklocs(), float)
-    if locs.size == 0:
-        return
-    formatter = axis.get_major_formatter()
-    labels = formatter.format_ticks(locs)
-    if formatter.get_offset():
-        return
-    # the ticks matplotlib draws: within the limits, to a tolerance, on the scale's transform
-    transform = axis.get_transform()
-    ends = np.sort(transform.transform(np.asarray(axis.get_view_interval(), float)))
-    at = transform.transform(locs)
-    slack = 1e-9 * (ends[1] - ends[0])
-    keep = np.flatnonzero((at >= ends[0] - slack) & (at <= ends[1] + slack))
-    axis.set_major_locator(FixedLocator(locs[keep]))
-    axis.set_major_formatter(FixedFormatter([labels[k] for k in keep]))
 
 
 def footer(fig, lines: Iterable[str], page: int | None = None, pages: int | None = None) -> None:
