@@ -60,7 +60,8 @@ def has_data(ax) -> bool:
 
 
 def check_figures(figures):
-    """Every axes has data or is marked as a text panel; every text is at least MIN_FONT."""
+    """Every axes has data or is marked as holding text only; no text panel is empty; every text is
+    at least MIN_FONT."""
     from matplotlib.text import Text
     for k, fig in enumerate(figures, start=1):
         assert tuple(np.round(fig.get_size_inches(), 2)) == (8.27, 11.69), f"page {k} is not A4 portrait"
@@ -69,6 +70,8 @@ def check_figures(figures):
                 assert ax.texts, f"page {k}: an empty text panel"
                 continue
             assert has_data(ax), f"page {k}: axes {ax.get_xlabel()!r}/{ax.get_ylabel()!r} shows no data"
+        for text in fig.texts:
+            assert text.get_gid() != TEXT_PANEL or text.get_text().strip(), f"page {k}: an empty text panel"
         for text in fig.findobj(Text):
             if text.get_visible() and text.get_text().strip():
                 assert text.get_fontsize() >= MIN_FONT, f"page {k}: {text.get_text()!r} in {text.get_fontsize()} pt"
@@ -148,9 +151,9 @@ def test_fixed_inertia_and_damping_say_so(fixed):
     assert len(figures) == 6                       # the synthetic trial has a reference
     check_figures(figures)
     posterior_page = figures[3]
-    panels = [ax for ax in posterior_page.axes if ax.get_gid() == TEXT_PANEL]
-    assert len(panels) == len(posterior_page.axes) == 1
-    assert "given, not identified" in " ".join(t.get_text() for t in panels[0].texts)
+    assert not posterior_page.axes                 # the page is a text panel: the figure's texts
+    panel = " ".join(t.get_text() for t in posterior_page.texts if t.get_gid() == TEXT_PANEL)
+    assert "No posterior of inertia and damping" in panel and "given, not identified" in panel
 
 
 @pytest.mark.slow
@@ -250,9 +253,8 @@ def test_page_one_is_the_answer(elbow):
     page = report_figures(elbow)[0]
     words = " ".join(t.get_text() for t in page.texts)
     assert "Verdict: OK" in words and "Median stiffness" in words and "90 % interval of the median" in words
-    plots = [ax for ax in page.axes if ax.get_gid() != TEXT_PANEL]
-    assert len(plots) == 1 and plots[0].get_ylabel() == "stiffness [N·m/rad]"
-    assert "not informed by motion" in [t.get_text() for t in plots[0].get_legend().get_texts()]
+    assert len(page.axes) == 1 and page.axes[0].get_ylabel() == "stiffness [N·m/rad]"
+    assert "not informed by motion" in [t.get_text() for t in page.axes[0].get_legend().get_texts()]
 
 
 def test_result_draws_into_a_users_axes_and_prints_page_one(elbow):
@@ -449,3 +451,51 @@ def test_two_panel_figure_keeps_its_legend_to_its_own_panel(elbow, tmp_path):
             assert label.y0 >= 0 and label.x1 <= fig.bbox.x1
     finally:
         plt.close(fig)
+
+
+def test_text_panel_is_the_pages_text_from_the_top_of_its_box():
+    """A text panel draws no axes: its title at the top left of its grid cell, the keys and values
+    below it (the values at ``key_width`` of the cell's width)."""
+    from limbstiff.report.common import FONT, grid, new_page, text_panel
+    with style():
+        fig = new_page()
+        gs = grid(fig, 2, 2)
+        text_panel(fig, gs[1, 1], [("rate", "1000 Hz"), ("samples", "60001")], title="Sampling", key_width=0.3)
+    assert not fig.axes
+    texts = [t for t in fig.texts if t.get_gid() == TEXT_PANEL]
+    assert [t.get_text() for t in texts] == ["Sampling", "rate\nsamples", "1000 Hz\n60001"]
+    box = gs[1, 1].get_position(fig)
+    x0, top = fig.transFigure.transform((box.x0, box.y1))
+    width = box.width * fig.bbox.width
+    at = [t.get_transform().transform(t.get_position()) for t in texts]
+    down = 2.0 * FONT["heading"] / 72 * fig.dpi
+    np.testing.assert_allclose(at, [(x0, top), (x0, top - down), (x0 + 0.3 * width, top - down)])
+    assert all(t.get_va() == "top" for t in texts)
+
+
+def test_fixed_ticks_are_the_ones_drawn_with_their_labels():
+    """fix_ticks keeps the ticks matplotlib draws, labelled as it labels them, and drops those
+    beyond the limits; an axis whose labels need an offset is left to matplotlib."""
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator
+    from limbstiff.report.ticks import fix_ticks
+
+    def drawn(axis):
+        return [(t.get_loc(), t.label1.get_text()) for t in axis._update_ticks()]
+
+    fig = Figure()
+    ax, log = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
+    ax.plot([0.3, 7.7], [1e6 + 1, 1e6 + 2])
+    ax.set_xlim(0.3, 7.7)
+    ax.xaxis.set_major_locator(MaxNLocator(5))
+    log.loglog([0.3, 400], [1e-4, 2])
+    log.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    with style():
+        before = [drawn(a) for a in (ax.xaxis, log.xaxis, log.yaxis)]
+        assert len(ax.xaxis.get_majorticklocs()) > len(before[0])          # some beyond the limits
+        for axis in (ax.xaxis, ax.yaxis, log.xaxis, log.yaxis):
+            fix_ticks(axis)
+        assert [drawn(a) for a in (ax.xaxis, log.xaxis, log.yaxis)] == before
+    assert len(ax.xaxis.get_majorticklocs()) == len(before[0])
+    assert isinstance(log.yaxis.get_major_locator(), FixedLocator)
+    assert not isinstance(ax.yaxis.get_major_locator(), FixedLocator)     # labels with an offset

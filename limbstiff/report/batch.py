@@ -286,7 +286,7 @@ def batch_figures(rows: Sequence[Mapping], *, sort_by: Sequence[str] | None = No
             figures.append(_plot_page(chunk, keys, ci_level, title))
         if not ok:
             fig = new_page("Batch overview")
-            text_panel(fig.add_subplot(1, 1, 1), f"{summary}. No trial succeeded, so there is nothing to plot; "
+            text_panel(fig, fig.add_gridspec(1, 1)[0], f"{summary}. No trial succeeded, so there is nothing to plot; "
                                                  "the table lists why each failed.", wrap=80)
             figures.append(fig)
         figures += _table_pages(ordered, keys, units)

@@ -31,7 +31,7 @@ MIN_FONT = 8
 FONT = {"body": 9, "small": 8, "heading": 11, "title": 15}
 #: Line spacing of text panels, in font sizes.
 ROW_SPACING = 1.4
-#: gid of an axes that holds text only (no data expected on it).
+#: gid of the texts of a text panel (:func:`text_panel`) and of an axes that holds text only.
 TEXT_PANEL = "text-panel"
 #: Part of the page left to the footer (bottom) and the title (top), in figure fractions.
 FOOTER_HEIGHT, TITLE_HEIGHT = 0.055, 0.05
@@ -167,77 +167,53 @@ def key_value_lines(key: str, value, wrap: int) -> tuple[list[str], list[str]]:
     return [key] + [""] * (len(wrapped) - 1), wrapped
 
 
-def text_panel(ax, lines: Sequence[tuple[str, str]] | str, *, title: str | None = None,
-               fontsize: float = FONT["body"], key_width: float = 0.42, wrap: int = 60):
-    """Turn an axes into a panel of text, from its top: a message, or ``key  value`` rows.
+def text_panel(fig, where, lines: Sequence[tuple[str, str]] | str, *, title: str | None = None,
+               fontsize: float = FONT["body"], key_width: float = 0.42, wrap: int = 60) -> None:
+    """A panel of text in a box of the page, from its top: a message, or ``key  value`` rows.
 
-    Lines are spaced in points (:data:`ROW_SPACING` × the font size), so the text keeps its
-    spacing whatever the panel's height; a panel too short for its text lets it run below its
+    The text is the figure's (gid :data:`TEXT_PANEL`), not an axes': an axes is hundreds of
+    artists, made and drawn for nothing here. Lines are spaced in points (:data:`ROW_SPACING` × the font size), so the text keeps
+    its spacing whatever the box's height; a box too short for its text lets it run below its
     bottom edge. A value that wraps takes several lines, its key the first.
 
     Parameters
     ----------
-    ax : matplotlib.axes.Axes
+    fig : matplotlib.figure.Figure
+    where : matplotlib.gridspec.SubplotSpec or (float, float, float, float)
+        The box: a cell of a :func:`grid`, or (left, bottom, width, height) in page fractions.
     lines : str or sequence of (str, str)
         A message (wrapped) or rows of a two-column table (values wrapped at ``wrap`` characters).
     title : str, optional
     fontsize : float, pt
     key_width : float
-        Fraction of the panel's width given to the keys.
+        Fraction of the box's width given to the keys.
     wrap : int
         Characters per line of a value (or the message).
     """
     from matplotlib.transforms import ScaledTranslation
 
-    ax.set_axis_off()
-    ax.set_gid(TEXT_PANEL)
-    fig = ax.get_figure()
+    left, bottom, width, height = where.get_position(fig).bounds if hasattr(where, "get_position") else where
 
-    def at(x, down_pt):
-        return ax.transAxes + ScaledTranslation(0, -down_pt / 72, fig.dpi_scale_trans), (x, 1.0)
+    def text(x, down_pt, s, **kw):
+        shift = fig.transFigure + ScaledTranslation(0, -down_pt / 72, fig.dpi_scale_trans)
+        fig.text(left + x * width, bottom + height, s, transform=shift, va="top", gid=TEXT_PANEL, **kw)
 
     down = 0.0
-    first = len(ax.texts)
     if title:
-        tr, xy = at(0, down)
-        ax.text(*xy, title, transform=tr, fontsize=FONT["heading"], weight="bold", va="top")
+        text(0, down, title, fontsize=FONT["heading"], weight="bold")
         down += 2.0 * FONT["heading"]
     if isinstance(lines, str):
-        tr, xy = at(0, down)
-        ax.text(*xy, "\n".join(textwrap.wrap(lines, wrap)), transform=tr, fontsize=fontsize, va="top",
-                linespacing=ROW_SPACING)
-    else:
-        # two texts, keys and values, each a column of lines: every text is laid out and drawn on
-        # its own, and one per cell made the panels' texts most of a report's text
-        keys, values = [], []
-        for key, value in lines:
-            key_lines, value_lines = key_value_lines(key, value, wrap)
-            keys += key_lines
-            values += value_lines
-        for x, column, weight in ((0, keys, "bold"), (key_width, values, "normal")):
-            tr, xy = at(x, down)
-            ax.text(*xy, "\n".join(column), transform=tr, fontsize=fontsize, weight=weight, va="top",
-                    linespacing=ROW_SPACING)
-    for text in ax.texts[first:]:
-        text.set_in_layout(False)       # the panel's size is the layout's; text may not push plots aside
-
-
-#: Most intervals between labelled ticks on a linear axis: matplotlib's default allows up to 9 on a
-#: page-wide axis; every tick is five artists, made and drawn one by one (profiled: a quarter of a
-#: trial report's time).
-TICK_BINS = 5
-
-
-def lean_ticks(fig) -> None:
-    """At most :data:`TICK_BINS` tick intervals on every linear axis of ``fig`` whose ticks were
-    left to matplotlib (axes that set their own locator keep it)."""
-    from matplotlib.ticker import AutoLocator, MaxNLocator
-    for ax in fig.axes:
-        if ax.get_gid() == TEXT_PANEL:
-            continue
-        for axis in (ax.xaxis, ax.yaxis):
-            if axis.get_scale() == "linear" and type(axis.get_major_locator()) is AutoLocator:
-                axis.set_major_locator(MaxNLocator(nbins=TICK_BINS, steps=[1, 2, 2.5, 5, 10]))
+        text(0, down, "\n".join(textwrap.wrap(lines, wrap)), fontsize=fontsize, linespacing=ROW_SPACING)
+        return
+    # two texts, keys and values, each a column of lines: every text is laid out and drawn on its
+    # own, and one per cell made the panels' texts most of a report's text
+    keys, values = [], []
+    for key, value in lines:
+        key_lines, value_lines = key_value_lines(key, value, wrap)
+        keys += key_lines
+        values += value_lines
+    for x, column, weight in ((0, keys, "bold"), (key_width, values, "normal")):
+        text(x, down, "\n".join(column), fontsize=fontsize, weight=weight, linespacing=ROW_SPACING)
 
 
 def footer(fig, lines: Iterable[str], page: int | None = None, pages: int | None = None) -> None:

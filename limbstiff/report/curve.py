@@ -70,5 +70,5 @@ def curve_page(result):
                  "weights); not yet calibrated: on an independent simulator it was too narrow, the curves "
                  "said ok within a few percent (docs/benchmarks.md)"))
     rows += [(c.name, ("ok: " if c.passed else "FAILED: ") + c.message) for c in analysis.checks]
-    text_panel(fig.add_subplot(gs[1]), rows, title="How the curve was made, and its checks", wrap=70)
+    text_panel(fig, gs[1], rows, title="How the curve was made, and its checks", wrap=70)
     return fig

@@ -141,7 +141,7 @@ def mechanics_page(result):
     post = result.posterior
     fig = new_page("Inertia and damping: posterior")
     if post is None:
-        _no_posterior(fig.add_axes((0.06, 0.5, 0.88, 0.38)), result)
+        _no_posterior(fig, result)
         return fig
     draws = np.asarray(post.draws, float)
     params = _parameters(result, draws)
@@ -154,15 +154,14 @@ def mechanics_page(result):
     if len(free) == 2:
         _pair(fig.add_subplot(gs[1, 0], sharex=diag[0]), *params, result.ci_level)
         diag[0].set_xlabel("")
-    text_ax = fig.add_subplot(gs[0, 1] if len(free) == 2 else gs[1, :])
-    text_panel(text_ax, _value_rows(result, params, draws), title="Values", key_width=0.4, wrap=34,
+    text_panel(fig, gs[0, 1] if len(free) == 2 else gs[1, :], _value_rows(result, params, draws), title="Values", key_width=0.4, wrap=34,
                fontsize=FONT["small"])
     _noise_levels(fig.add_subplot(outer[1].subgridspec(1, 4)[0, 1:]), draws, result.trial.units)
     return fig
 
 
-def _no_posterior(ax, result) -> None:
-    """Say on ``ax`` why there is no posterior: direct variant, or m and b given."""
+def _no_posterior(fig, result) -> None:
+    """Say on the page ``fig`` why there is no posterior: direct variant, or m and b given."""
     u = result.trial.units
     if result.variant == "direct":
         why = ("Direct variant: the torque on the elastic element is measured, so the stiffness needs "
@@ -171,7 +170,7 @@ def _no_posterior(ax, result) -> None:
         why = (f"Inertia and damping were given, not identified: m = {fmt(result.inertia.median, u['inertia'])}, "
                f"b = {fmt(result.damping.median, u['damping'])}. There is no posterior to show; the band "
                "of the stiffness holds the estimator's own uncertainty only.")
-    text_panel(ax, why, title="No posterior of inertia and damping", wrap=80)
+    text_panel(fig, (0.06, 0.5, 0.88, 0.38), why, title="No posterior of inertia and damping", wrap=80)
 
 
 def _parameters(result, draws: np.ndarray) -> list[_Parameter]:

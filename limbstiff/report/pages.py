@@ -175,7 +175,7 @@ def relation_page(result):
     (:func:`~limbstiff.report.plots.plot_angle_course`)."""
     fig = new_page("Stiffness against angle and torque")
     if not result.observable.any():
-        text_panel(fig.add_axes((0.06, 0.5, 0.88, 0.38)), "No sample of this trial is informed by motion, so the "
+        text_panel(fig, (0.06, 0.5, 0.88, 0.38), "No sample of this trial is informed by motion, so the "
                    "stiffness cannot be related to the angle or the torque.", wrap=90)
         return fig
     figure = angle_figure(result)
@@ -240,12 +240,11 @@ def reference_page(result):
     ax1.set_xlabel("time [s]")
     ax1.set_xlim(t[0], t[-1])
     ax1.legend(loc="upper right", ncols=2)
-    ax2 = fig.add_subplot(gs[1, 0])
-    ax3 = fig.add_subplot(gs[1, 1])
     good = use & np.isfinite(rel)
     drawn = rel[good]
     del rel                                 # the histogram's temporaries not on top of it
     if good.any():
+        ax2 = fig.add_subplot(gs[1, 0])
         ax2.hist(np.abs(drawn, out=drawn), bins=40, color="C3", alpha=0.8, histtype="stepfilled")
         ax2.set_xlabel("|relative error| [%]")
         ax2.set_ylabel("samples")
@@ -254,7 +253,7 @@ def reference_page(result):
             ax2.axvline(100 * err["p90"], color="k", lw=1, ls="--", label="90th percentile")
             ax2.legend(loc="upper right")
     else:
-        text_panel(ax2, "No informed sample after the first 2 s: no error to show.")
+        text_panel(fig, gs[1, 0], "No informed sample after the first 2 s: no error to show.")
     rows = [("Samples used", f"{err['n']} (informed, after the first {REFERENCE_SKIP_S:g} s)")]
     if err["median"] is not None:
         rows += [("Median error", f"{100 * err['median']:.3g} %"),
@@ -264,5 +263,5 @@ def reference_page(result):
     rows.append(("Reference", "stiffness_true column" if result.trial.stiffness_true is not None
                  and np.array_equal(ref, result.trial.stiffness_true) else "calibration curve"))
     rows.append(("Reference range", f"{fmt(np.nanmin(ref))} to {fmt(np.nanmax(ref), u['stiffness'])}"))
-    text_panel(ax3, rows, title="Error against the reference", key_width=0.42, wrap=30)
+    text_panel(fig, gs[1, 1], rows, title="Error against the reference", key_width=0.42, wrap=30)
     return fig

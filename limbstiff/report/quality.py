@@ -64,16 +64,19 @@ def _trend_slope(x: np.ndarray) -> float:
     return moment / (n * (n * n - 1.0) / 12.0) if n > 1 else 0.0
 
 
-def _spectrum_axes(ax, x, fs, *, label, unit, cutoff, edge, step, floor=None):
+def _spectrum_axes(fig, where, x, fs, *, label, unit, cutoff, edge, step, floor=None):
+    """The spectrum of ``x`` against the filter's corner and the noise levels in the grid cell
+    ``where``; the axes, or None when there is no spectrum (said in words there instead)."""
     if is_constant(x):
-        text_panel(ax, f"The {label} is constant ({fmt(float(np.mean(x)), unit)}): it has no spectrum.")
-        return
+        text_panel(fig, where, f"The {label} is constant ({fmt(float(np.mean(x)), unit)}): it has no spectrum.")
+        return None
     freq, asd = spectrum(x, fs)
     keep = (freq > 0) & (asd > 0)
     if keep.sum() < 2:
-        text_panel(ax, f"The {label} has no spectrum to show (too short or a straight line).")
-        return
+        text_panel(fig, where, f"The {label} has no spectrum to show (too short or a straight line).")
+        return None
     from matplotlib.ticker import FuncFormatter, NullLocator
+    ax = fig.add_subplot(where)
     ax.loglog(freq[keep], asd[keep], lw=0.8, color="C0", label=f"{label} spectrum")
     for axis in (ax.xaxis, ax.yaxis):
         # a log axis's minor ticks and math-text labels cost more than the page's data
@@ -93,17 +96,19 @@ def _spectrum_axes(ax, x, fs, *, label, unit, cutoff, edge, step, floor=None):
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel(f"{label} ASD [{unit}/sqrt(Hz)]")
     ax.legend(loc="lower left", fontsize=FONT["small"], framealpha=0.85)
+    return ax
 
 
-def _scan_axes(ax, scan, fs) -> None:
+def _scan_axes(fig, where, ax, scan, fs) -> None:
     """The model's held-out torque prediction at each corner tried, on a second y axis of the
-    torque spectrum's panel (same frequency axis)."""
+    torque spectrum's panel ``ax`` (same frequency axis) in the grid cell ``where``; on an axes of
+    its own there, without the frequency axis, when the torque has no spectrum (``ax`` None)."""
     if scan is None:
         return
     pairs = [(fs / 2 * 0.95 if c is None else c, v) for c, v in zip(scan.corners_hz, scan.scores) if v is not None]
     if not pairs:
         return
-    twin = ax.twinx()
+    twin = ax.twinx() if ax is not None else _right_axis(fig.add_subplot(where))
     corners, scores = map(np.asarray, zip(*pairs))
     twin.plot(corners, 100 * np.clip(scores, -1, 1), "o-", color="C4", ms=3.5, lw=1,
               label="torque predicted out of sample, per corner tried")
@@ -112,12 +117,21 @@ def _scan_axes(ax, scan, fs) -> None:
     twin.set_ylim(min(0.0, 100 * float(scores.min()) - 5), 100)
     twin.set_ylabel("held-out torque predicted [%]", color="C4")
     # one legend for both y axes (drawn on the twin, which lies on top)
-    handles, labels = ax.get_legend_handles_labels()
+    handles, labels = ax.get_legend_handles_labels() if ax is not None else ([], [])
     more, more_labels = twin.get_legend_handles_labels()
-    if ax.get_legend() is not None:
+    if ax is not None and ax.get_legend() is not None:
         ax.get_legend().remove()
     twin.legend(handles + more, labels + more_labels, loc="lower left", ncols=2, fontsize=FONT["small"],
                 framealpha=0.85)
+
+
+def _right_axis(ax):
+    """``ax`` drawn as the twin of a panel without axes would be: its y axis on the right, no x axis."""
+    ax.yaxis.tick_right()
+    ax.yaxis.set_label_position("right")
+    ax.xaxis.set_visible(False)
+    ax.patch.set_visible(False)
+    return ax
 
 
 def _rms(x) -> float:
@@ -168,7 +182,7 @@ def quality_page(result):
                 ("samples", f"{trial.n_samples} over {trial.duration:.4g} s")]
     reading = [w for w in trial.warnings] or ["none"]
     sampling += [("reading notes" if i == 0 else "", w) for i, w in enumerate(reading)]
-    text_panel(fig.add_subplot(gs[0, 0]), sampling, title="Sampling", key_width=0.3, wrap=42,
+    text_panel(fig, gs[0, 0], sampling, title="Sampling", key_width=0.3, wrap=42,
                fontsize=FONT["small"])
     cutoff = bw.cutoff_hz
     chain = f.chain.kind
@@ -183,19 +197,18 @@ def quality_page(result):
                 ("informed window", f"{fmt(d.observable_window_s, 's', 3)}; speed above "
                                     f"{fmt(d.velocity_threshold, u['angle'] + '/s', 3)}"),
                 ("informed", f"{100 * result.observable_fraction:.1f} % of the samples")]
-    text_panel(fig.add_subplot(gs[0, 1]), observer, title="Filter and observer", key_width=0.36, wrap=36,
+    text_panel(fig, gs[0, 1], observer, title="Filter and observer", key_width=0.36, wrap=36,
                fontsize=FONT["small"])
     edge = bw.signal_edge_hz
-    _spectrum_axes(fig.add_subplot(gs[1, :]), trial.angle, trial.fs, label=word["angle"], unit=u["angle"],
+    _spectrum_axes(fig, gs[1, :], trial.angle, trial.fs, label=word["angle"], unit=u["angle"],
                    cutoff=cutoff, edge=edge, step=bw.quantisation_step, floor=bw.noise_floor)
-    torque_axes = fig.add_subplot(gs[2, :])
-    _spectrum_axes(torque_axes, torque, trial.fs, label=word[key], unit=u[key],
-                   cutoff=cutoff, edge=edge, step=f.torque_quantisation_step)
-    _scan_axes(torque_axes, result.corner_scan, trial.fs)
+    torque_axes = _spectrum_axes(fig, gs[2, :], torque, trial.fs, label=word[key], unit=u[key],
+                                 cutoff=cutoff, edge=edge, step=f.torque_quantisation_step)
+    _scan_axes(fig, gs[2, :], torque_axes, result.corner_scan, trial.fs)
     quant = (_quantisation_rows(word["angle"], u["angle"], bw.quantisation_step, trial.angle)
              + _quantisation_rows(word[key], u[key], f.torque_quantisation_step, torque))
-    text_panel(fig.add_subplot(gs[3, 0]), quant, title="Quantisation", key_width=0.36, wrap=36,
+    text_panel(fig, gs[3, 0], quant, title="Quantisation", key_width=0.36, wrap=36,
                fontsize=FONT["small"])
-    text_panel(fig.add_subplot(gs[3, 1]), _mcmc_rows(result), title="MCMC (inertia, damping)", key_width=0.36,
+    text_panel(fig, gs[3, 1], _mcmc_rows(result), title="MCMC (inertia, damping)", key_width=0.36,
                wrap=36, fontsize=FONT["small"])
     return fig

@@ -19,11 +19,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..provenance import dependencies_text, software
-from .common import footer, lean_ticks, style, write_pdf
+from .common import footer, style, write_pdf
 from .curve import curve_page
 from .mechanics import mechanics_page
 from .pages import reference_page, relation_page, summary_page, time_page
 from .quality import quality_page
+from .ticks import lean_ticks
 
 #: Page builders, in order; each takes the result and returns a Figure (or None to skip).
 PAGES = (summary_page, curve_page, time_page, relation_page, mechanics_page, quality_page, reference_page)
@@ -49,7 +50,8 @@ def report_figures(result) -> list:
     Returns
     -------
     list of matplotlib.figure.Figure
-        A4 portrait pages; axes holding only text have gid ``"text-panel"``.
+        A4 portrait pages; the texts of text panels have gid ``"text-panel"``; the ticks of every
+        axis are fixed (:func:`~limbstiff.report.ticks.fix_ticks`).
     """
     with style():
         figures = [fig for fig in (page(result) for page in PAGES) if fig is not None]
