@@ -1,7 +1,7 @@
 """docs/architecture.md stays true, and the layout keeps its rules.
 
 The module map must name every module of the package (and only importable ones); no function
-may exceed 80 lines; no module may be named like a standard-library module (``io``, ``select``…
+may exceed 60 lines and no module 430; no module may be named like a standard-library module (``io``, ``select``…
 shadow the real ones for relative imports and confuse readers); no module may be replaced at
 import (a package that turns itself into a callable class is a package *and* a function).
 """
@@ -20,8 +20,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "limbstiff"
 MAP = ROOT / "docs" / "architecture.md"
-#: The issue's limit for one function, in lines (the project's guide aims for about 60).
-MAX_FUNCTION_LINES = 80
+#: The guide's limit for one function, in lines (its docstring included).
+MAX_FUNCTION_LINES = 60
+#: A module is readable in one sitting: the guide's ~400 lines, with a little room.
+MAX_MODULE_LINES = 430
 
 
 def _package_modules() -> set[str]:
@@ -60,6 +62,12 @@ def test_no_function_is_longer_than_the_limit():
                 n = node.end_lineno - node.lineno + 1
                 if n > MAX_FUNCTION_LINES:
                     long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({n} lines)")
+    assert long == []
+
+
+def test_no_module_is_longer_than_the_limit():
+    long = [f"{path.relative_to(ROOT)} ({n} lines)" for path in PACKAGE.rglob("*.py")
+            if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES]
     assert long == []
 
 

@@ -207,7 +207,7 @@ def reference_page(result):
     """
     if result.reference is None:
         return None
-    t, u = result.trial.time, result.trial.units
+    t = result.trial.time
     ref = np.asarray(result.reference, float)
     fig = new_page("Error against the reference stiffness")
     # the estimate against the reference over time is on pages 1 and 2 already
@@ -243,17 +243,30 @@ def reference_page(result):
     good = use & np.isfinite(rel)
     drawn = rel[good]
     del rel                                 # the histogram's temporaries not on top of it
-    if good.any():
-        ax2 = fig.add_subplot(gs[1, 0])
-        ax2.hist(np.abs(drawn, out=drawn), bins=40, color="C3", alpha=0.8, histtype="stepfilled")
-        ax2.set_xlabel("|relative error| [%]")
-        ax2.set_ylabel("samples")
-        if err and err["median"] is not None:
-            ax2.axvline(100 * err["median"], color="k", lw=1, label="median")
-            ax2.axvline(100 * err["p90"], color="k", lw=1, ls="--", label="90th percentile")
-            ax2.legend(loc="upper right")
-    else:
-        text_panel(fig, gs[1, 0], "No informed sample after the first 2 s: no error to show.")
+    _error_histogram(fig, gs[1, 0], np.abs(drawn, out=drawn), err)
+    text_panel(fig, gs[1, 1], _reference_rows(result, ref, err), title="Error against the reference",
+               key_width=0.42, wrap=30)
+    return fig
+
+
+def _error_histogram(fig, where, drawn: np.ndarray, err: dict) -> None:
+    """The |relative errors| (%) of the informed samples after the first seconds, with their median
+    and 90th percentile; a sentence where there is none."""
+    if not drawn.size:
+        text_panel(fig, where, "No informed sample after the first 2 s: no error to show.")
+        return
+    ax = fig.add_subplot(where)
+    ax.hist(drawn, bins=40, color="C3", alpha=0.8, histtype="stepfilled")
+    ax.set_xlabel("|relative error| [%]")
+    ax.set_ylabel("samples")
+    if err and err["median"] is not None:
+        ax.axvline(100 * err["median"], color="k", lw=1, label="median")
+        ax.axvline(100 * err["p90"], color="k", lw=1, ls="--", label="90th percentile")
+        ax.legend(loc="upper right")
+
+
+def _reference_rows(result, ref: np.ndarray, err: dict) -> list:
+    """The reference page's table: the samples used, the errors, the band's coverage, the reference."""
     rows = [("Samples used", f"{err['n']} (informed, after the first {REFERENCE_SKIP_S:g} s)")]
     if err["median"] is not None:
         rows += [("Median error", f"{100 * err['median']:.3g} %"),
@@ -262,6 +275,5 @@ def reference_page(result):
                                    f"{100 * result.ci_level:.0f} % band")]
     rows.append(("Reference", "stiffness_true column" if result.trial.stiffness_true is not None
                  and np.array_equal(ref, result.trial.stiffness_true) else "calibration curve"))
-    rows.append(("Reference range", f"{fmt(np.nanmin(ref))} to {fmt(np.nanmax(ref), u['stiffness'])}"))
-    text_panel(fig, gs[1, 1], rows, title="Error against the reference", key_width=0.42, wrap=30)
-    return fig
+    rows.append(("Reference range", f"{fmt(np.nanmin(ref))} to {fmt(np.nanmax(ref), result.trial.units['stiffness'])}"))
+    return rows
