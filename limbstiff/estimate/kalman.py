@@ -73,9 +73,10 @@ class KalmanStiffness:
 
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, deflection: np.ndarray,
                      initial_mean, initial_cov, guess: NoiseLevels, motion_frequency: float,
-                     max_evaluations: int = 400) -> tuple[NoiseLevels, float]:
+                     max_evaluations: int = 400, warm: bool = False) -> tuple[NoiseLevels, float]:
     """Maximum-likelihood noise levels within :func:`~limbstiff.statespace.noise.noise_bounds`, by
-    the one noise fit (:func:`~limbstiff.statespace.noise.fit_levels`) from ``guess``.
+    the one noise fit (:func:`~limbstiff.statespace.noise.fit_levels`) from ``guess`` (one search
+    from it alone when ``warm``: a neighbouring model's optimum).
 
     Returns
     -------
@@ -89,7 +90,7 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
         return kalman_loglik(increments, measured, NoiseLevels(*np.exp(x)), step=step, deflection=deflection,
                              initial_mean=initial_mean, initial_cov=initial_cov)
 
-    best, value = fit_levels(loglik, x0, bounds, max_evaluations)
+    best, value = fit_levels(loglik, x0, bounds, max_evaluations, warm=warm)
     return NoiseLevels(*np.exp(best)), value
 
 
@@ -104,7 +105,7 @@ def data_guess(steps: ModelSteps) -> NoiseLevels:
     return NoiseLevels(measurement=resid, torque_walk=resid / duration, stiffness_walk=walk, coupled_walk=walk)
 
 
-def fit_noise(steps: ModelSteps, *, motion_frequency: float) -> NoiseLevels:
+def fit_noise(steps: ModelSteps, *, motion_frequency: float, warm: NoiseLevels | None = None) -> NoiseLevels:
     """Maximum-likelihood noise levels of the model on ``steps`` from :func:`data_guess`
     (:func:`fit_noise_levels`): what :func:`kalman_stiffness` fits, without the smoothing.
 
@@ -112,6 +113,9 @@ def fit_noise(steps: ModelSteps, *, motion_frequency: float) -> NoiseLevels:
     ----------
     steps : ModelSteps
     motion_frequency : float, Hz
+    warm : NoiseLevels, optional
+        The optimum of a neighbouring model (the previous corner of a scan): one search from it
+        instead of the starts from :func:`data_guess`.
 
     Returns
     -------
@@ -119,7 +123,8 @@ def fit_noise(steps: ModelSteps, *, motion_frequency: float) -> NoiseLevels:
     """
     noise, _ = fit_noise_levels(steps.increments, steps.measured, step=steps.step, deflection=steps.deflection,
                                 initial_mean=steps.initial_mean, initial_cov=steps.initial_cov,
-                                guess=data_guess(steps), motion_frequency=motion_frequency)
+                                guess=data_guess(steps) if warm is None else warm,
+                                motion_frequency=motion_frequency, warm=warm is not None)
     return noise
 
 

@@ -135,7 +135,8 @@ def starts(loglik, guess, bounds: list) -> list[np.ndarray]:
     return unique
 
 
-def fit_levels(loglik, guess, bounds: list, max_evaluations: int = 400) -> tuple[np.ndarray, float]:
+def fit_levels(loglik, guess, bounds: list, max_evaluations: int = 400, *,
+               warm: bool = False) -> tuple[np.ndarray, float]:
     """The noise levels of the state-space model by maximum likelihood: the one noise fit.
 
     Nelder–Mead over the log levels within ``bounds`` (:func:`noise_bounds`) from each of
@@ -156,6 +157,11 @@ def fit_levels(loglik, guess, bounds: list, max_evaluations: int = 400) -> tuple
         Bounds of the log levels.
     max_evaluations : int
         Likelihood evaluations allowed per start.
+    warm : bool
+        ``guess`` is the optimum of a neighbouring likelihood (the same model at the next corner of a
+        scan, :func:`limbstiff.bandwidth.scan_corners`): one search from it alone, not from each of
+        :func:`starts` — the basin is the neighbour's, and the grid and the shifted walks only look
+        for it again.
 
     Returns
     -------
@@ -169,7 +175,8 @@ def fit_levels(loglik, guess, bounds: list, max_evaluations: int = 400) -> tuple
         return -value if np.isfinite(value) else 1e300
 
     best = None
-    for x0 in starts(loglik, guess, bounds):
+    lo, hi = np.array(bounds).T
+    for x0 in [np.clip(np.asarray(guess, dtype=float), lo, hi)] if warm else starts(loglik, guess, bounds):
         res = _nelder_mead(negative, x0, bounds, max_evaluations)
         if best is None or res.fun < best.fun:
             best = res
