@@ -98,7 +98,7 @@ def _score(filtered: Filtered, reference: np.ndarray,
     squares, the noise levels by maximum likelihood as the analysis fits them
     (:func:`~limbstiff.estimate.kalman.fit_noise`; the smoothed course is not needed), from the
     neighbouring corner's optimum ``warm`` when given (the corners are close: the optimum moves a
-    little, it does not change basin)."""
+    little; :func:`~limbstiff.statespace.noise.fit_levels` says why the first guess is searched from too)."""
     if filtered.variant == "external":
         fit = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
                             sample_period=filtered.sample_period, window=WINDOW_PERIODS / filtered.motion_hz)

@@ -73,10 +73,10 @@ class KalmanStiffness:
 
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, deflection: np.ndarray,
                      initial_mean, initial_cov, guess: NoiseLevels, motion_frequency: float,
-                     max_evaluations: int = 400, warm: bool = False) -> tuple[NoiseLevels, float]:
+                     max_evaluations: int = 400, warm: NoiseLevels | None = None) -> tuple[NoiseLevels, float]:
     """Maximum-likelihood noise levels within :func:`~limbstiff.statespace.noise.noise_bounds`, by
-    the one noise fit (:func:`~limbstiff.statespace.noise.fit_levels`) from ``guess`` (one search
-    from it alone when ``warm``: a neighbouring model's optimum).
+    the one noise fit (:func:`~limbstiff.statespace.noise.fit_levels`) from ``guess`` (and from
+    ``warm``, a neighbouring model's optimum, alone when given).
 
     Returns
     -------
@@ -90,7 +90,7 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
         return kalman_loglik(increments, measured, NoiseLevels(*np.exp(x)), step=step, deflection=deflection,
                              initial_mean=initial_mean, initial_cov=initial_cov)
 
-    best, value = fit_levels(loglik, x0, bounds, max_evaluations, warm=warm)
+    best, value = fit_levels(loglik, x0, bounds, max_evaluations, warm=None if warm is None else warm.logs())
     return NoiseLevels(*np.exp(best)), value
 
 
@@ -114,8 +114,8 @@ def fit_noise(steps: ModelSteps, *, motion_frequency: float, warm: NoiseLevels |
     steps : ModelSteps
     motion_frequency : float, Hz
     warm : NoiseLevels, optional
-        The optimum of a neighbouring model (the previous corner of a scan): one search from it
-        instead of the starts from :func:`data_guess`.
+        The optimum of a neighbouring model (the previous corner of a scan): searched from it and
+        from :func:`data_guess` alone (:func:`~limbstiff.statespace.noise.fit_levels`).
 
     Returns
     -------
@@ -123,8 +123,7 @@ def fit_noise(steps: ModelSteps, *, motion_frequency: float, warm: NoiseLevels |
     """
     noise, _ = fit_noise_levels(steps.increments, steps.measured, step=steps.step, deflection=steps.deflection,
                                 initial_mean=steps.initial_mean, initial_cov=steps.initial_cov,
-                                guess=data_guess(steps) if warm is None else warm,
-                                motion_frequency=motion_frequency, warm=warm is not None)
+                                guess=data_guess(steps), motion_frequency=motion_frequency, warm=warm)
     return noise
 
 
