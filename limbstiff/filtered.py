@@ -130,7 +130,8 @@ class Filtered:
         return float(max(self.bandwidth.quantisation_step / np.sqrt(12.0), self.angle_noise))
 
     def lowpass(self, x: np.ndarray) -> np.ndarray:
-        """``x`` (n,) through the same low-pass as the recorded channels."""
+        """``x`` (n,) through the same low-pass as the recorded channels (or (k, n), each row, on a
+        zero-phase chain)."""
         return self.differentiate(x, 0)[0]
 
     def differentiate(self, x: np.ndarray, order: int) -> np.ndarray:

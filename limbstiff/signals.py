@@ -154,7 +154,7 @@ def zero_phase_lowpass(x: np.ndarray, fs: float, cutoff_hz: float | None, *, ord
 
     Parameters
     ----------
-    x : ndarray, shape (n,)
+    x : ndarray, shape (n,), or (k, n): each row filtered (as it would be alone)
     fs : float, Hz
     cutoff_hz : float or None, Hz
         Corner; None returns a copy of ``x``.
@@ -163,13 +163,13 @@ def zero_phase_lowpass(x: np.ndarray, fs: float, cutoff_hz: float | None, *, ord
 
     Returns
     -------
-    ndarray, shape (n,)
+    ndarray, shape of ``x``
     """
     x = np.asarray(x, dtype=float)
     if cutoff_hz is None:
         return x.copy()
     sos = _butterworth(order, float(cutoff_hz), float(fs))
-    return signal.sosfiltfilt(sos, x, padtype="odd", padlen=min(len(x) - 1, int(3 * fs / cutoff_hz)))
+    return signal.sosfiltfilt(sos, x, padtype="odd", padlen=min(x.shape[-1] - 1, int(3 * fs / cutoff_hz)))
 
 
 @functools.lru_cache(maxsize=64)

@@ -14,9 +14,13 @@ from click.testing import CliRunner
 from limbstiff.analysis import analyze
 from limbstiff.checks.reflex import WRONG_SHIFT, MechanicsMove, ReflexShift, amplitude_threshold, reflex_check
 from limbstiff.cli import main
+from limbstiff.effects.channels import Channels
 from limbstiff.effects.in_model import IN_MODEL
+from limbstiff.effects.kinds import Scales, filtered_torque
+from limbstiff.effects.registry import CANDIDATES
 from limbstiff.errors import TrialError
 from limbstiff.files import write_trial
+from limbstiff.filtered import filter_trial
 from limbstiff.mechanics.likelihood import MechanicsProblem
 from limbstiff.mechanics.least_squares import LeastSquaresFit
 from limbstiff.protocol import MODEL_EFFECTS, Protocol, ProtocolError, protocol_from_dict
@@ -168,6 +172,7 @@ def test_the_screened_profile_keeps_the_exhaustive_best_shape(effect):
     import dataclasses
     from limbstiff.effects import in_model
     from limbstiff.effects.channels import Channels
+    from limbstiff.effects.kinds import Scales
     from limbstiff.mechanics.identification import mechanics_problem
     trial = simulate("elbow", seed=5, params={"duration": 12}, effect=effect)
     result = analyze(trial, seed=0)
@@ -194,6 +199,7 @@ def test_a_long_trials_shapes_are_screened_around_the_models_blocks():
     # reflex: the same profile, 5–8× cheaper on the ankles)
     from limbstiff.effects import in_model
     from limbstiff.effects.channels import Channels
+    from limbstiff.effects.kinds import Scales
     from limbstiff.filtered import filter_trial
     from limbstiff.mechanics.identification import mechanics_problem
     from limbstiff.mechanics.likelihood import kalman_mechanics
@@ -213,3 +219,15 @@ def test_a_long_trials_shapes_are_screened_around_the_models_blocks():
     idx = problem.steps.index
     exhaustive = [in_model._shape_loglik(problem, logs, effect.evaluate(ch, s).regressors[0][idx]) for s in shapes]
     assert shapes[int(np.argmax(exhaustive))] in kept
+
+
+def test_shapes_filtered_together_are_each_as_alone(reflex_elbow):
+    # the probe filters its shapes' torques in blocks (TorqueEffect.columns): every row must be
+    # the very torque the shape gives alone, so that the chosen shape cannot depend on the blocks
+    ch = Channels.before_analysis(reflex_elbow, filter_trial(reflex_elbow, Protocol()))
+    effect = CANDIDATES["reflex"]
+    shapes = effect.grid(Scales.of([ch]))[::13]
+    together = effect.columns(ch, shapes)
+    for shape, row in zip(shapes, together):
+        assert np.array_equal(filtered_torque(ch, effect.torque(ch, shape)), row)
+    assert np.array_equal(ch.linear_part(together)[1], ch.linear_part(together[1]))

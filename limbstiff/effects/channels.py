@@ -126,11 +126,13 @@ class Channels:
         return float(self.time[-1] - self.time[0])
 
     def lowpass(self, x: np.ndarray) -> np.ndarray:
-        """``x`` through the same low-pass as the recorded channels (shape (n,))."""
+        """``x`` through the same low-pass as the recorded channels (shape (n,), or (k, n) on a
+        zero-phase chain: each row)."""
         return self.filtered.lowpass(x)
 
     def linear_part(self, x: np.ndarray) -> np.ndarray:
-        """Least-squares fit of ``x`` (n,) on 1, y, ẏ, ÿ.
+        """Least-squares fit of ``x`` (n,) on 1, y, ẏ, ÿ; of each row of ``x`` (k, n) when stacked
+        (each as alone, the centred columns formed once for all of them).
 
         On y, ẏ, ÿ less their means (the same fit; centred, the constant is orthogonal to them and
         an angle's offset costs no accuracy), through their 3 × 3 normal equations scaled to unit
@@ -147,14 +149,17 @@ class Channels:
             object.__setattr__(self, key, kept)
         means, norms, inverse = kept
         x = np.asarray(x, float)
-        level = float(np.mean(x))
-        projections = sum(d @ (x[rows] - level) for rows, d in
-                          zip(self._blocks(), self._centred_blocks(columns, means)))
-        coef = inverse @ (projections / norms) / norms
-        out = np.empty(self.n)
+        stacked = np.atleast_2d(x)
+        levels = [float(np.mean(row)) for row in stacked]
+        projections = [0] * len(stacked)
         for rows, d in zip(self._blocks(), self._centred_blocks(columns, means)):
-            out[rows] = level + coef @ d
-        return out
+            projections = [p + d @ (row[rows] - level) for p, row, level in zip(projections, stacked, levels)]
+        coefs = [inverse @ (p / norms) / norms for p in projections]
+        out = np.empty(stacked.shape)
+        for rows, d in zip(self._blocks(), self._centred_blocks(columns, means)):
+            for k, (level, coef) in enumerate(zip(levels, coefs)):
+                out[k, rows] = level + coef @ d
+        return out.reshape(x.shape)
 
     def _blocks(self):
         return (slice(i, i + LINEAR_BLOCK) for i in range(0, self.n, LINEAR_BLOCK))

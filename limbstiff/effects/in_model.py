@@ -49,6 +49,9 @@ SCREEN_SHARE = 0.2
 #: than the reflex's delays (≤ 80 ms), its activation's time constants (≤ 0.12 s) and the low-pass
 #: filters' transients at the joins.
 SCREEN_MARGIN_S = 2.0
+#: The shapes' torques are filtered together, at most about this many samples at a time (a few
+#: tens of MB: one call per block, not per shape).
+COLUMNS_SAMPLES = 2 ** 21
 
 
 @dataclass(frozen=True)
@@ -122,13 +125,21 @@ def _screened(ch: Channels, effect: TorqueEffect, shapes: list, problem: Mechani
     else:
         offset = int(idx[0] % q)
         coarse, at = ch.every(q, offset), (idx - offset) // q
-    logliks = [_shape_loglik(problem, logs, effect.evaluate(coarse, shape).regressors[0][at]) for shape in shapes]
+    logliks = [_shape_loglik(problem, logs, column[at]) for column in _columns(effect, coarse, shapes)]
     valid = [v for v in logliks if v is not None]
     if not valid:
         return list(shapes)
     top = max(valid)
     margin = SCREEN_SHARE * (top - float(np.median(valid)))
     return [shape for shape, v in zip(shapes, logliks) if v is not None and v >= top - margin]
+
+
+def _columns(effect: TorqueEffect, ch: Channels, shapes: list):
+    """Each shape's torque per unit amplitude on ``ch`` (n,), in turn: filtered
+    :data:`COLUMNS_SAMPLES` samples at a time (:meth:`TorqueEffect.columns`)."""
+    per = max(1, COLUMNS_SAMPLES // max(ch.n, 1))
+    for first in range(0, len(shapes), per):
+        yield from effect.columns(ch, shapes[first:first + per])
 
 
 def _around_blocks(problem: MechanicsProblem, ch: Channels) -> np.ndarray | None:
@@ -139,8 +150,10 @@ def _around_blocks(problem: MechanicsProblem, ch: Channels) -> np.ndarray | None
     firsts = np.flatnonzero(restart | (np.arange(len(idx)) == 0))
     lasts = np.append(firsts[1:] - 1, len(idx) - 1)
     margin = int(SCREEN_MARGIN_S * ch.fs)
-    spans = [np.arange(max(idx[a] - margin, 0), min(idx[b] + margin + 1, ch.n)) for a, b in zip(firsts, lasts)]
-    rows = np.unique(np.concatenate(spans))
+    near = np.zeros(ch.n, dtype=bool)
+    for a, b in zip(firsts, lasts):
+        near[max(idx[a] - margin, 0):min(idx[b] + margin + 1, ch.n)] = True
+    rows = np.flatnonzero(near)
     return rows if 2 * len(rows) < ch.n else None
 
 
@@ -173,11 +186,11 @@ def profile_effect(ch: Channels, name: str, problem: MechanicsProblem, noise: No
     idx = problem.steps.index
     shapes = effect.grid(Scales.of([ch]))
     best = None
-    for shape in _screened(ch, effect, shapes, problem, logs):
-        column = effect.evaluate(ch, shape).regressors[0]
+    screened = _screened(ch, effect, shapes, problem, logs)
+    for shape, column in zip(screened, _columns(effect, ch, screened)):
         loglik = _shape_loglik(problem, logs, column[idx])
         if loglik is not None and (best is None or loglik > best[0]):
-            best = (loglik, shape, column)
+            best = (loglik, shape, np.array(column))
     if best is None:
         raise LimbstiffError(f"the {name} could not be fitted at any shape of its grid")
     loglik, shape, column = best

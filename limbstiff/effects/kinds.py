@@ -185,8 +185,13 @@ class TorqueEffect(ModelEffect):
     smooth: bool = False
 
     def evaluate(self, ch: Channels, shape: Mapping) -> Term:
-        phi = self.torque(ch, shape)
-        return Term(regressors=(phi if self.smooth else filtered_torque(ch, phi))[None])
+        return Term(regressors=self.columns(ch, [shape]))
+
+    def columns(self, ch: Channels, shapes: list) -> np.ndarray:
+        """The torque per unit amplitude at each of ``shapes``, shape (len(shapes), n): the shapes
+        filtered together (:func:`filtered_torque` of their stack; each row as it would be alone)."""
+        phi = np.vstack([self.torque(ch, shape) for shape in shapes])
+        return phi if self.smooth else filtered_torque(ch, phi)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -241,7 +246,8 @@ class MechanicsOffset(ModelEffect):
 
 def filtered_torque(ch: Channels, x: np.ndarray) -> np.ndarray:
     """A torque with sharp features computed from the filtered signals, made comparable with the
-    filtered record.
+    filtered record: ``x`` shape (n,), or (k, n) for k torques at once (one low-pass call; each row
+    the same as alone).
 
     The recorded torque went through the low-pass once, so an effect torque with content above
     the band (a kink at reversals: friction, rectification, hysteresis) must too — but only its
