@@ -185,7 +185,7 @@ def section(out: dict) -> str:
     wrong = [r for r in done if r["median_error"] > 0.05]
     ok = [r for r in done if r["verdict"] == "ok"]
     lines.append(f"\nTrials whose curve is more than 5 % off (median over its bins): {len(wrong)} of {len(done)}, "
-                 f"verdicts {dict(Counter(r['verdict'] for r in wrong))}. The {len(ok)} trials said `ok`: median error "
+                 f"verdicts {dict(Counter(str(r['verdict']) for r in wrong))}. The {len(ok)} trials said `ok`: median error "
                  f"{100 * np.median([r['median_error'] for r in ok]):.1f} % (at most "
                  f"{100 * max(r['median_error'] for r in ok):.1f} %), coverage "
                  f"{100 * np.mean(np.concatenate([r['inside'] for r in ok])):.0f} %. Band half-width ÷ median error, "

@@ -52,8 +52,13 @@ def _check_reflex(result) -> str:
     check = next((c for c in result.checks.checks if c.name == "reflex"), None)
     if check is None:
         return "not probed"
-    found = re.search(r"towards (positive|negative) angles.*?delay (\d+) ms", check.message)
-    return "none stands out" if found is None else f"{'+' if found[1] == 'positive' else '−'}1, {found[2]} ms"
+    if check.message.startswith("no delayed torque"):
+        return "none stands out"
+    towards, delay = (re.search(r"towards (positive|negative) angles", check.message),
+                      re.search(r"delay (\d+) ms", check.message))
+    if towards is None or delay is None:
+        return f"unread: {check.message[:60]}"
+    return f"{'+' if towards[1] == 'positive' else '−'}1, {delay[1]} ms ({'flagged' if not check.passed else 'within its band'})"
 
 
 def _shape(params: dict | None) -> str:
