@@ -146,12 +146,14 @@ def _run(paths, work, options: JobOptions, *, out, jobs, executor, progress, mar
     ``then`` as for :func:`_run_jobs`.
     """
     missing: list[tuple[str, str]] = []
-    files = discover(paths, missing=missing)
+    searched: set[Path] = set()
+    files = discover(paths, missing=missing, searched=searched)
     if not files:
         raise NothingToDo("; ".join(why for _, why in missing))
     out = writable_folder(out)
     names, notes = output_names(files)
-    jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
+    jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options, searched=f in searched)
+                 for f, n in zip(files, names)]
     return _run_jobs(jobs_list, work, out=out, jobs=jobs, executor=executor, progress=progress, marker=marker,
                      writes=writes, missing=missing, notes=notes, then=then)
 
@@ -178,8 +180,9 @@ def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, e
     table.write(finished)
 
     def record(outcome, done, total):
-        finished[outcome.trial] = outcome
-        table.write(finished)
+        if outcome.status != "skipped":         # a file found in a folder that is no trial: no row
+            finished[outcome.trial] = outcome
+            table.write(finished)
         if progress:
             progress(outcome, done, total)
 
@@ -191,7 +194,10 @@ def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, e
         raise
     final, more = table.write(finished, then=None if then is None else functools.partial(then, out))
     mixed = mixed_kinds(final)
-    return BatchReport(outcomes=tuple(outcomes + lost), out=out, notes=tuple(notes) + tuple(more or ()),
+    skipped = [o for o in outcomes if o.status == "skipped"]
+    notes = [n for n in notes if not any(n.startswith(f"{o.source}: ") for o in skipped)]   # its name is moot
+    return BatchReport(outcomes=tuple(o for o in outcomes if o.status != "skipped") + tuple(lost), out=out,
+                       notes=tuple(f"{o.error}; skipped" for o in skipped) + tuple(notes) + tuple(more or ()),
                        missing=tuple(why for _, why in missing), warnings=(mixed,) if mixed else ())
 
 
