@@ -184,11 +184,8 @@ def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: I
     present only for a complete trial) records the same input SHA-256 and the same run
     fingerprint (settings, seed, reference, version), and every file in ``files`` is there.
     """
-    try:
-        summary = json.loads((directory / marker).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    if not isinstance(summary, dict):
+    summary = read_marker(directory / marker)
+    if summary is None:
         return None
     if summary.get("source_sha256") != source_sha256 or summary.get("run_sha256") != run_sha256:
         return None
@@ -213,11 +210,8 @@ def outputs_state(directory: Path, *, source: Path, run_sha256: str, files: Iter
     """
     from ..files.atomic import sha256_file
 
-    try:
-        summary = json.loads((Path(directory) / marker).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return "absent"
-    if not isinstance(summary, dict):
+    summary = read_marker(Path(directory) / marker)
+    if summary is None:
         return "absent"
     if summary.get("run_sha256") != run_sha256:
         return "settings"
@@ -314,20 +308,27 @@ class FolderTable:
             if name in lost or sig is None:
                 continue
             if self._read.get(name, (None,))[0] != sig:
-                self._read[name] = (sig, _read_marker(path))
+                self._read[name] = (sig, _folder_row(path))
             if self._read[name][1] is not None:
                 rows[name] = self._read[name][1]
         return rows
 
 
-def _read_marker(path: Path) -> TrialOutcome[TrialRow] | None:
-    """The row of a complete trial folder, read back from its marker (``resumed``: a run that
-    reads it did not make it), or None when it cannot be read."""
+def read_marker(path: Path) -> dict | None:
+    """A trial folder's ``summary.json`` or ``posterior.json`` (written last: there only when the
+    folder is complete), or None when it is missing or not a JSON object."""
     try:
         summary = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
-    if not isinstance(summary, dict):
+    return summary if isinstance(summary, dict) else None
+
+
+def _folder_row(path: Path) -> TrialOutcome[TrialRow] | None:
+    """The row of a complete trial folder, read back from its marker ``path`` (``resumed``: a run
+    that reads it did not make it), or None when it cannot be read."""
+    summary = read_marker(path)
+    if summary is None:
         return None
     return TrialOutcome(path.parent.name, str(summary.get("source", "")), "ok", "",
                         TrialRow.from_summary(summary, resumed=True), resumed=True)
