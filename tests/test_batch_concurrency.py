@@ -219,6 +219,7 @@ def test_a_subjects_list_beside_the_trials_is_skipped_with_one_line(trial_file, 
     assert res.exit_code == 0, res.output
     lines = [ln for ln in res.output.splitlines() if "subjects" in ln and ln.startswith("limbstiff:")]
     assert lines == [f"limbstiff: note: {(folder / 'subjects.xlsx').resolve()}: not a trial: no time, angle or "
-                     "torque column (headers found: name, age, group); skipped"]
+                     "torque column (expected time_s, angle_deg, torque_Nm or the like; headers found: name, age, "
+                     "group); skipped"]
     assert "1 of 1 trials done" in res.output
     assert list(pd.read_csv(out / "summary.csv")["trial"]) == ["t0"] and not (out / "subjects").exists()

@@ -294,7 +294,8 @@ def _check_complete(file: _Listing, columns: dict[str, ColumnSpec], need_time: b
     where, noun, found = file.where, file.noun, file.found
     hint = _protocol_hint(file, columns)
     if not hint and not {"time", "angle", "torque", "elastic_torque"} & set(columns):
-        raise NotATrial(where, f"not a trial: no time, angle or torque {noun} ({found})")
+        raise NotATrial(where, f"not a trial: no time, angle or torque {noun} (expected time_s, angle_deg, "
+                               f"torque_Nm or the like; {found})")
     if need_time and "time" not in columns:
         raise TrialError(where, f"no time {noun} (expected time_s, time_ms or 'Time (s)'; {found}){hint}")
     if "angle" not in columns:
