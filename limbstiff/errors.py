@@ -29,6 +29,12 @@ class TrialError(LimbstiffError, ValueError):
         super().__init__(f"{self.source}: {problem}")
 
 
+class NotATrial(TrialError):
+    """A table without any of a trial's columns (no time, angle or torque column, and no header
+    that looks like one): a list of subjects or notes kept beside the trials. A batch skips such
+    a file found in a folder, with one line, and fails it when it was named."""
+
+
 class ProtocolError(LimbstiffError, ValueError):
     """A protocol file (or a command-line override) that is not valid."""
 

@@ -4,7 +4,7 @@
 |---|---|
 | ``discovery.py`` | which files a batch analyses, and each one's output folder name |
 | ``runner.py`` | running the trials (serially or in processes), one failure never stopping the others |
-| ``table.py`` | ``summary.csv``, and whether a trial's outputs are current (``--resume``) |
+| ``table.py`` | ``summary.csv`` (rebuilt from the trial folders, under a lock); whether outputs are current |
 | ``overwrite.py`` | outputs that exist: refused without ``--overwrite``, cleared with it |
 | ``jobs.py`` | :func:`analyze_files` and :func:`identify_files`: read, analyse, write, per trial |
 | ``outcome.py`` | :class:`BatchReport`, what a run returns (``to_dict``, ``to_frame``, ``plot``, ``report``) |

@@ -20,7 +20,7 @@ class NothingToDo(LimbstiffError):
 
 
 def discover(paths: Iterable[str | os.PathLike], *, extensions: tuple[str, ...] = FOLDER_EXTENSIONS,
-             missing: list[tuple[str, str]] | None = None) -> list[Path]:
+             missing: list[tuple[str, str]] | None = None, searched: set[Path] | None = None) -> list[Path]:
     """Trial files named by ``paths``: files, folders (searched recursively) or globs.
 
     Folders are searched for files whose extension is in ``extensions`` (case-insensitive);
@@ -33,6 +33,9 @@ def discover(paths: Iterable[str | os.PathLike], *, extensions: tuple[str, ...] 
         When given, a path that matches nothing is appended to it as (path, one-line reason)
         instead of stopping the batch: the other trials still run and the missing one is a
         failed row of ``summary.csv``.
+    searched : set, optional
+        When given, the files found by searching a folder (not named or globbed) are added to it,
+        resolved: a batch skips those that are no trial.
 
     Raises
     ------
@@ -44,8 +47,11 @@ def discover(paths: Iterable[str | os.PathLike], *, extensions: tuple[str, ...] 
         text = str(raw)
         p = Path(text)
         if p.is_dir():
-            found += sorted(q for q in p.rglob("*") if q.is_file() and q.suffix.lower() in extensions
+            inside = sorted(q for q in p.rglob("*") if q.is_file() and q.suffix.lower() in extensions
                             and not q.name.startswith("."))
+            found += inside
+            if searched is not None:
+                searched.update(q.resolve() for q in inside)
             continue
         if p.is_file():
             found.append(p)

@@ -20,14 +20,13 @@ from .discovery import NothingToDo, discover, output_names, writable_folder
 from .outcome import BatchReport
 from .overwrite import clear_or_refuse, refuse_other_outputs, source_sha256
 from .runner import BatchJob, TrialOutcome, run_jobs, run_one
-from .table import TrialRow, folder_outcomes, mixed_kinds, up_to_date, write_summary_csv
+from .table import FolderTable, TrialRow, mixed_kinds, up_to_date
 from ..errors import LimbstiffError
 from ..protocol import Protocol
 
 if TYPE_CHECKING:
     from ..calibrate import SpringCalibration
 
-SUMMARY_CSV = "summary.csv"
 OVERVIEW_PDF = "overview.pdf"
 
 
@@ -138,65 +137,67 @@ def _run_trial(job: BatchJob[JobOptions], *, work: Callable[[BatchJob[JobOptions
 
 
 def _run(paths, work, options: JobOptions, *, out, jobs, executor, progress, marker: str,
-         writes: Sequence[str]) -> BatchReport:
+         writes: Sequence[str], then=None) -> BatchReport:
     """Discover the trials, run ``work`` on each (one failure never stops the others), and keep
-    ``summary.csv`` current after every finished trial, so an interrupted run leaves it true.
+    ``summary.csv`` the folder's table (:class:`~limbstiff.batch.table.FolderTable`).
 
-    ``summary.csv`` is the folder's table: besides this run's trials it keeps a row for every
-    trial of an earlier run whose complete outputs (``marker`` written) are in the folder. A
-    path that matches nothing is a failed row; the output folder, and whether the run may write
+    A path that matches nothing is a failed row; the output folder, and whether the run may write
     its trials' outputs there (:func:`refuse_other_outputs`), are checked before any trial.
+    ``then`` as for :func:`_run_jobs`.
     """
     missing: list[tuple[str, str]] = []
-    files = discover(paths, missing=missing)
+    searched: set[Path] = set()
+    files = discover(paths, missing=missing, searched=searched)
     if not files:
         raise NothingToDo("; ".join(why for _, why in missing))
     out = writable_folder(out)
     names, notes = output_names(files)
-    jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options) for f, n in zip(files, names)]
+    jobs_list = [BatchJob(source=f, name=n, out=out / n, options=options, searched=f in searched)
+                 for f, n in zip(files, names)]
     return _run_jobs(jobs_list, work, out=out, jobs=jobs, executor=executor, progress=progress, marker=marker,
-                     writes=writes, missing=missing, notes=notes)
+                     writes=writes, missing=missing, notes=notes, then=then)
 
 
 def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, executor, progress, marker: str,
-              writes: Sequence[str], missing: Sequence[tuple[str, str]] = (), notes: Sequence[str] = ()
-              ) -> BatchReport:
-    """:func:`_run` from its jobs on: the refusal, the runs and ``summary.csv`` (kept current)."""
-    names = [job.name for job in jobs_list]
+              writes: Sequence[str], missing: Sequence[tuple[str, str]] = (), notes: Sequence[str] = (),
+              then: Callable[[Path, list[TrialOutcome]], tuple[str, ...]] | None = None) -> BatchReport:
+    """:func:`_run` from its jobs on: the refusal, the runs and ``summary.csv``.
+
+    The table is rebuilt from the folder and written when the run begins, after every finished
+    trial, and once more on the way out (after Ctrl-C too: trials that finished meanwhile are
+    read from their folders), so that after an interruption or a kill it lists the complete
+    trial folders and no other. ``then(out, rows)``, run under the table's lock after its last
+    writing (not after an interruption), writes what else shows the table (``overview.pdf``) and
+    returns notes.
+    """
     refuse_other_outputs(jobs_list, out, marker=marker, files=writes)
     if executor is not None:
         from .cluster import check_shared_folder
         check_shared_folder(executor, out)      # workers write there: before any trial runs
     lost = [TrialOutcome(Path(text).stem, text, "failed", why) for text, why in missing]
-    # the folder's rows are read once; of this run's trials not yet finished, only whether their
-    # marker is still there can change (it is removed while a trial is redone)
-    earlier = folder_outcomes(out, marker, exclude={o.trial for o in lost})
-    pending = set(names)
+    table = FolderTable(out, marker, [job.name for job in jobs_list], lost)
     finished: dict[str, TrialOutcome] = {}
-
-    def table(current):
-        # a trial of this run that failed while its earlier complete outputs stayed keeps their row:
-        # the table never says less than what is on disk (the failure is on stderr)
-        before = {o.trial: o for o in earlier}
-        current = [before[o.trial] if o.status != "ok" and o.trial in before
-                   and (out / o.trial / marker).is_file() else o for o in current]
-        done = {o.trial for o in current}
-        kept = [o for o in earlier if o.trial not in done
-                and (o.trial not in pending or (out / o.trial / marker).is_file())]
-        return current + lost + kept
+    table.write(finished)
 
     def record(outcome, done, total):
-        finished[outcome.trial] = outcome
-        write_summary_csv(out / SUMMARY_CSV, table([finished[n] for n in names if n in finished]))
+        if outcome.status != "skipped":         # a file found in a folder that is no trial: no row
+            finished[outcome.trial] = outcome
+            table.write(finished)
         if progress:
             progress(outcome, done, total)
 
-    outcomes = run_jobs(jobs_list, functools.partial(_run_trial, work=work),
-                        n_jobs=jobs, executor=executor, progress=record)
-    final = table(outcomes)
-    write_summary_csv(out / SUMMARY_CSV, final)
+    try:
+        outcomes = run_jobs(jobs_list, functools.partial(_run_trial, work=work),
+                            n_jobs=jobs, executor=executor, progress=record)
+    except BaseException:
+        table.write(finished)
+        raise
+    final, more = table.write(finished, then=None if then is None else functools.partial(then, out))
     mixed = mixed_kinds(final)
-    return BatchReport(outcomes=tuple(outcomes + lost), out=out, notes=tuple(notes),
+    skipped = [o for o in outcomes if o.status == "skipped"]
+    notes = [n for n in notes if not any(n.startswith(f"{o.source}: ") for o in skipped)]   # its name is moot
+    return BatchReport(outcomes=tuple(o for o in outcomes if o.status != "skipped") + tuple(lost), out=out,
+                       notes=tuple(f"{o.error}; skipped" for o in skipped) + tuple(notes) + tuple(more or ()),
                        missing=tuple(why for _, why in missing), warnings=(mixed,) if mixed else ())
 
 
@@ -296,11 +297,9 @@ def analyze_files(paths: Sequence[str], *, protocol: Protocol | None = None, out
     options = JobOptions(protocol, seed, run_sha256=run_fingerprint(protocol, seed=seed, reference=reference),
                          overwrite=overwrite, resume=resume, pdf=pdf, reference=reference)
     from ..files.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON
-    report = _run(paths, _analyse_and_write, options, out=out, jobs=jobs, executor=executor, progress=progress,
-                  marker="summary.json", writes=(STIFFNESS_CSV, SUMMARY_JSON) + ((REPORT_PDF,) if pdf else ()))
-    if pdf:
-        report = _overview(report, protocol, sort_by)
-    return report
+    return _run(paths, _analyse_and_write, options, out=out, jobs=jobs, executor=executor, progress=progress,
+                marker="summary.json", writes=(STIFFNESS_CSV, SUMMARY_JSON) + ((REPORT_PDF,) if pdf else ()),
+                then=functools.partial(_overview, protocol=protocol, sort_by=sort_by) if pdf else None)
 
 
 def analyze_ensemble(paths: Sequence[str], *, protocol: Protocol | None = None, out: str | Path = "limbstiff-out",
@@ -339,30 +338,29 @@ def analyze_ensemble(paths: Sequence[str], *, protocol: Protocol | None = None, 
     name = name or folder.name
     job = BatchJob(source=folder, name=name, out=out / name, options=options)
     report = _run_jobs([job], _analyse_and_write, out=out, jobs=1, executor=executor, progress=progress,
-                       marker=SUMMARY_JSON, writes=(STIFFNESS_CSV, SUMMARY_JSON) + ((REPORT_PDF,) if pdf else ()))
-    report = dataclasses.replace(report, warnings=warnings + report.warnings)
-    return _overview(report, protocol, ()) if pdf else report
+                       marker=SUMMARY_JSON, writes=(STIFFNESS_CSV, SUMMARY_JSON) + ((REPORT_PDF,) if pdf else ()),
+                       then=functools.partial(_overview, protocol=protocol, sort_by=()) if pdf else None)
+    return dataclasses.replace(report, warnings=warnings + report.warnings)
 
 
-def _overview(report: BatchReport, protocol: Protocol, sort_by: Sequence[str]) -> BatchReport:
-    """Write ``overview.pdf``; a failure here is a note, never a lost batch."""
+def _overview(out: Path, rows: list[TrialOutcome], *, protocol: Protocol, sort_by: Sequence[str]) -> tuple[str, ...]:
+    """Write ``overview.pdf`` of the table's ``rows``; a failure here is a note, never a lost batch."""
     from ..report import write_batch_overview
 
     try:
-        write_batch_overview(_overview_rows(report), report.out / OVERVIEW_PDF, sort_by=list(sort_by) or None,
+        write_batch_overview(_overview_rows(out, rows), out / OVERVIEW_PDF, sort_by=list(sort_by) or None,
                              ci_level=protocol.ci_level)
     except Exception as exc:  # noqa: BLE001 - the trials are done; say why the overview is missing
-        note = f"{report.out / OVERVIEW_PDF} not written ({type(exc).__name__}: {exc})"
-        return dataclasses.replace(report, notes=report.notes + (" ".join(note.split()),))
-    return report
+        return (" ".join(f"{out / OVERVIEW_PDF} not written ({type(exc).__name__}: {exc})".split()),)
+    return ()
 
 
-def _overview_rows(report: BatchReport) -> list[dict]:
+def _overview_rows(out: Path, rows: list[TrialOutcome]) -> list[dict]:
     """The overview's rows (:func:`~limbstiff.report.write_batch_overview`): each done trial's
     ``summary.json`` as written, a failed trial's reason."""
     from ..files.outputs import SUMMARY_JSON
-    return [json.loads((report.out / o.trial / SUMMARY_JSON).read_text(encoding="utf-8")) if o.status == "ok"
-            else {"trial": o.trial, "status": "failed", "error": o.error} for o in report.outcomes]
+    return [json.loads((out / o.trial / SUMMARY_JSON).read_text(encoding="utf-8")) if o.status == "ok"
+            else {"trial": o.trial, "status": "failed", "error": o.error} for o in rows]
 
 
 def check_reference(path: str | Path):

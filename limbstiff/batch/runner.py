@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Generic, Sequence, TypeVar
 
-from ..errors import LimbstiffError
+from ..errors import LimbstiffError, NotATrial
 
 #: What a trial's work returns (the outcome's row).
 RowT = TypeVar("RowT")
@@ -33,9 +33,10 @@ class TrialOutcome(Generic[RowT]):
         Its name (the output folder's).
     source : str
         Its file, as given.
-    status : {"ok", "failed"}
+    status : {"ok", "failed", "skipped"}
+        ``skipped``: a file found in a folder that is no trial (:class:`~limbstiff.errors.NotATrial`).
     error : str
-        Why it failed, in one line ("" when ok).
+        Why it failed or was skipped, in one line ("" when ok).
     row : RowT or None
         What its work returned (None when it failed).
     resumed : bool
@@ -57,7 +58,8 @@ class BatchJob(Generic[OptionsT]):
     ``source`` and ``out`` are as the user gave them (and are recorded so); ``options`` what every
     trial of the batch is run with; ``cwd``, set when the job runs on an executor (another
     process, maybe another machine), is the client's working directory, which relative paths
-    are opened from (:meth:`at`).
+    are opened from (:meth:`at`); ``searched``, that the file was found by searching a folder
+    (not named): one that is no trial is skipped, not failed.
     """
 
     source: Path
@@ -65,6 +67,7 @@ class BatchJob(Generic[OptionsT]):
     out: Path
     options: OptionsT
     cwd: str | None = None
+    searched: bool = False
 
     def at(self, path: Path) -> Path:
         """``path`` as this job opens it: from the client's working directory when relative."""
@@ -73,9 +76,12 @@ class BatchJob(Generic[OptionsT]):
 
 
 def run_one(job: BatchJob, analyse_and_write: Callable[[BatchJob], RowT]) -> TrialOutcome[RowT]:
-    """Run one trial, turning any failure into a ``failed`` outcome with a one-line reason."""
+    """Run one trial, turning any failure into a ``failed`` outcome with a one-line reason (a
+    file found in a folder that is no trial: ``skipped``)."""
     try:
         row = analyse_and_write(job)
+    except NotATrial as exc:
+        return TrialOutcome(job.name, str(job.source), "skipped" if job.searched else "failed", _one_line(str(exc)))
     except LimbstiffError as exc:
         return TrialOutcome(job.name, str(job.source), "failed", _one_line(str(exc)))
     except MemoryError:

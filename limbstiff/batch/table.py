@@ -7,6 +7,7 @@ A finished trial's row is a :class:`TrialRow`, read from the ``summary.json`` (o
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -28,6 +29,8 @@ SUMMARY_COLUMNS = ("trial", "status", "verdict", "error", "source", "variant", "
                    "damping_unit")
 #: Prefix of the ``summary.csv`` columns that carry each trial's metadata (``# key: value`` lines).
 METADATA_PREFIX = "meta."
+#: The run's table, in the output folder.
+SUMMARY_CSV = "summary.csv"
 
 
 @dataclass(frozen=True)
@@ -181,11 +184,8 @@ def up_to_date(directory: Path, *, source_sha256: str, run_sha256: str, files: I
     present only for a complete trial) records the same input SHA-256 and the same run
     fingerprint (settings, seed, reference, version), and every file in ``files`` is there.
     """
-    try:
-        summary = json.loads((directory / marker).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    if not isinstance(summary, dict):
+    summary = read_marker(directory / marker)
+    if summary is None:
         return None
     if summary.get("source_sha256") != source_sha256 or summary.get("run_sha256") != run_sha256:
         return None
@@ -210,11 +210,8 @@ def outputs_state(directory: Path, *, source: Path, run_sha256: str, files: Iter
     """
     from ..files.atomic import sha256_file
 
-    try:
-        summary = json.loads((Path(directory) / marker).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return "absent"
-    if not isinstance(summary, dict):
+    summary = read_marker(Path(directory) / marker)
+    if summary is None:
         return "absent"
     if summary.get("run_sha256") != run_sha256:
         return "settings"
@@ -226,24 +223,115 @@ def outputs_state(directory: Path, *, source: Path, run_sha256: str, files: Iter
     return "current" if all((Path(directory) / f).is_file() for f in files) else "files"
 
 
-def folder_outcomes(out: Path, marker: str, *, exclude: set[str]) -> list[TrialOutcome[TrialRow]]:
-    """The rows of trials of earlier runs kept in ``out``: every sub-folder whose ``marker``
-    (``summary.json`` or ``posterior.json``, written last) is there and readable, read back from
-    it, in name order; those named in ``exclude`` (this run's) are left out. They count as up to
-    date (``resumed`` 1): this run did not touch them."""
-    rows = []
-    for path in sorted(Path(out).glob(f"*/{marker}")):
-        name = path.parent.name
-        if name in exclude:
-            continue
-        try:
-            summary = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            continue
-        if isinstance(summary, dict):
-            rows.append(TrialOutcome(name, str(summary.get("source", "")), "ok", "",
-                                     TrialRow.from_summary(summary, resumed=True), resumed=True))
-    return rows
+#: The lock file beside ``summary.csv`` (:func:`~limbstiff.files.atomic.locked`): held while the
+#: table is rebuilt from the folder and written, so that runs into one folder lose no update.
+TABLE_LOCK = ".summary.csv.lock"
+
+
+def _signature(path: Path) -> tuple[int, int, int] | None:
+    """What tells one writing of a file from another (its inode, size and modification time), or
+    None when it is not there."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+@dataclass
+class FolderTable:
+    """``summary.csv`` of one output folder, rebuilt from the folder each time it is written.
+
+    The trial folders are the record: a trial is in the table as done when its ``marker``
+    (``summary.json`` or ``posterior.json``, written last) is there and readable, and never
+    otherwise. Besides this run's trials (in input order; a failed one keeps the row of its
+    earlier complete outputs when they are still there), the table holds every other complete
+    trial folder, by name: earlier runs', and those of runs writing into the folder at the same
+    time. Each writing reads the folder and writes the table under :data:`TABLE_LOCK`.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+    marker : str
+        The file a complete trial folder holds.
+    names : sequence of str
+        This run's trials, in input order.
+    lost : sequence of TrialOutcome
+        Failed rows of this run that are no trial (paths that matched nothing).
+    """
+
+    out: Path
+    marker: str
+    names: Sequence[str]
+    lost: Sequence[TrialOutcome] = ()
+    _started: dict = field(default_factory=dict, repr=False)
+    _read: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self):
+        # which of this run's trials had complete outputs when it began, and which writing of them
+        self._started = {n: _signature(self.out / n / self.marker) for n in self.names}
+
+    def write(self, finished: Mapping[str, TrialOutcome[TrialRow]], *,
+              then: Callable[[list[TrialOutcome[TrialRow]]], Any] | None = None) -> tuple[list, Any]:
+        """Rebuild the table from the folder and ``finished`` (this run's outcomes so far, by
+        trial) and write it atomically, under the folder's lock; ``then(rows)``, if given, runs
+        under the same lock (the overview). Returns the rows and what ``then`` returned."""
+        from ..files.atomic import locked
+
+        with locked(self.out / TABLE_LOCK):
+            rows = self.rows(finished)
+            write_summary_csv(self.out / SUMMARY_CSV, rows)
+            return rows, (then(rows) if then is not None else None)
+
+    def rows(self, finished: Mapping[str, TrialOutcome[TrialRow]]) -> list[TrialOutcome[TrialRow]]:
+        """The table's rows: this run's finished trials, its lost paths, then the other complete
+        trial folders by name (``resumed`` unless this run wrote them)."""
+        disk = self._complete()
+        current = []
+        for name in self.names:
+            o = finished.get(name)
+            if o is not None:
+                # the table never says less than what is on disk: a failed trial's earlier outputs
+                current.append(disk[name] if o.status != "ok" and name in disk else o)
+        kept = [dataclasses.replace(o, resumed=False, row=dataclasses.replace(o.row, resumed=False))
+                if o.trial in self._started and self._started[o.trial] != _signature(self.out / o.trial / self.marker)
+                else o for name, o in disk.items() if name not in finished]
+        return current + list(self.lost) + kept
+
+    def _complete(self) -> dict[str, TrialOutcome[TrialRow]]:
+        """Every complete trial folder's row, by name (a marker read again only when rewritten)."""
+        lost = {o.trial for o in self.lost}
+        rows = {}
+        for path in sorted(self.out.glob(f"*/{self.marker}")):
+            name, sig = path.parent.name, _signature(path)
+            if name in lost or sig is None:
+                continue
+            if self._read.get(name, (None,))[0] != sig:
+                self._read[name] = (sig, _folder_row(path))
+            if self._read[name][1] is not None:
+                rows[name] = self._read[name][1]
+        return rows
+
+
+def read_marker(path: Path) -> dict | None:
+    """A trial folder's ``summary.json`` or ``posterior.json`` (written last: there only when the
+    folder is complete), or None when it is missing or not a JSON object."""
+    try:
+        summary = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return summary if isinstance(summary, dict) else None
+
+
+def _folder_row(path: Path) -> TrialOutcome[TrialRow] | None:
+    """The row of a complete trial folder, read back from its marker ``path`` (``resumed``: a run
+    that reads it did not make it), or None when it cannot be read."""
+    summary = read_marker(path)
+    if summary is None:
+        return None
+    return TrialOutcome(path.parent.name, str(summary.get("source", "")), "ok", "",
+                        TrialRow.from_summary(summary, resumed=True), resumed=True)
 
 
 def mixed_kinds(outcomes: Iterable[TrialOutcome[TrialRow]]) -> str | None:

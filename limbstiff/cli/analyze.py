@@ -5,8 +5,9 @@ from __future__ import annotations
 import click
 
 from ..protocol import ESTIMATORS, MODEL_EFFECTS
-from .options import (fail, finish, with_curve_options, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
-                      protocol_option, reports_errors, scheduler_option, seed_option)
+from .options import (fail, finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
+                      protocol_option, reports_errors, scheduler_option, seed_option, stopped_on_kill,
+                      with_curve_options)
 
 
 @click.command("analyze")
@@ -69,7 +70,7 @@ def command(paths: tuple[str, ...], protocol_path: str | None, out: str, jobs: i
     protocol = with_curve_options(protocol, period_s=period_s, start_s=start_s, marker=marker, schedule=schedule)
     reference = check_reference(reference_path) if reference_path else None
     keys = [k.strip() for k in sort_by.split(",") if k.strip()]
-    with dask_executor(scheduler) as executor:
+    with stopped_on_kill(), dask_executor(scheduler) as executor:
         if ensemble:
             finish(analyze_ensemble(paths, protocol=protocol, out=out, seed=seed, pdf=not no_pdf, overwrite=overwrite,
                                     resume=resume, reference=reference, executor=executor, progress=Progress()))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .options import (finish, jobs_option, load_protocol_or_default, n_jobs, out_option, overwrite_option,
-                      protocol_option, reports_errors, scheduler_option, seed_option)
+                      protocol_option, reports_errors, scheduler_option, seed_option, stopped_on_kill)
 
 
 @click.command("identify")
@@ -25,6 +25,6 @@ def command(paths: tuple[str, ...], protocol_path: str | None, out: str, jobs: i
     from .progress import Progress
     from ..batch.jobs import identify_files
 
-    with dask_executor(scheduler) as executor:
+    with stopped_on_kill(), dask_executor(scheduler) as executor:
         finish(identify_files(paths, protocol=load_protocol_or_default(protocol_path), out=out, jobs=jobs,
                               seed=seed, overwrite=overwrite, executor=executor, progress=Progress()))

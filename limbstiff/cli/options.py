@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import os
+import signal
 import sys
-from typing import TYPE_CHECKING, NoReturn
+import threading
+from typing import TYPE_CHECKING, Iterator, NoReturn
 
 import click
 
@@ -45,6 +49,30 @@ def finish(report: BatchReport) -> NoReturn:
         click.echo(f"limbstiff: note: {note}", err=True)
     click.echo(report.tally, err=True)
     sys.exit(report.exit_status if report.outcomes else EXIT_USAGE)
+
+
+@contextlib.contextmanager
+def stopped_on_kill() -> Iterator[None]:
+    """In the block, a kill (SIGTERM) stops this process as Ctrl-C does: the batch writes its table
+    once more on the way out and the command exits 130 ("interrupted"). Processes forked from it
+    (local workers) keep the default: a kill ends them at once. No effect off the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pid = os.getpid()
+
+    def interrupt(signum, frame):
+        if os.getpid() != pid:               # a forked worker: end as the default would
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+            return
+        raise KeyboardInterrupt
+
+    before = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, before)
 
 
 def n_jobs(jobs, scheduler=None):

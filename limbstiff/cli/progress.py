@@ -33,11 +33,11 @@ class Progress:
         self.drawn = False
 
     def __call__(self, outcome, done: int, total: int) -> None:
-        self.failed += outcome.status != "ok"
+        self.failed += outcome.status == "failed"
         if not self.bar:
             click.echo(f"[{done}/{total}] {outcome.trial}: {_mark(outcome)}", file=self.stream)
             return
-        if outcome.status != "ok":
+        if outcome.status == "failed":
             self._clear()
             click.echo(f"{outcome.trial}: FAILED: {outcome.error}", file=self.stream)
         self._draw(done, total)
@@ -62,6 +62,8 @@ class Progress:
 
 
 def _mark(outcome) -> str:
+    if outcome.status == "skipped":
+        return "skipped, not a trial"
     if outcome.status != "ok":
         return f"FAILED: {outcome.error}"
     return "up to date; --overwrite to redo" if getattr(outcome, "resumed", False) else "ok"

@@ -1,9 +1,11 @@
-"""Atomic file output and file hashing.
+"""Atomic file output, file hashing, and a lock between processes.
 
 Every file limbstiff writes goes through here: the content is written to a temporary file
 in the destination directory, flushed to disk, then renamed over the destination with
 :func:`os.replace`. A reader therefore sees either the old file or the complete new one,
-and a failure (an exception, a full disk) leaves any previous file untouched.
+and a failure (an exception, a full disk) leaves any previous file untouched. A file that
+several processes read and rewrite (a folder's ``summary.csv``) is rebuilt under
+:func:`locked`, so that no process's update is lost.
 """
 
 from __future__ import annotations
@@ -14,8 +16,6 @@ import os
 import tempfile
 from pathlib import Path
 from typing import Iterator
-
-
 
 def _read_umask() -> int:
     # Linux exposes the umask without changing it; elsewhere set it and put it back, once.
@@ -116,6 +116,40 @@ def atomic_write_text(path: str | os.PathLike, text: str, encoding: str = "utf-8
         Text encoding (UTF-8 unless told).
     """
     atomic_write_bytes(path, text.encode(encoding))
+
+
+@contextlib.contextmanager
+def locked(path: str | os.PathLike) -> Iterator[None]:
+    """Hold an exclusive lock on the file ``path`` (created if needed, never removed) for the body,
+    waiting for any other process that holds it.
+
+    A POSIX record lock (:func:`fcntl.lockf`), which NFS honours between machines (lockd, or
+    NFSv4 itself), and which the system releases when its process ends, so that a killed run
+    never leaves it held; on Windows a lock on the file's first byte (:func:`msvcrt.locking`).
+    Between processes only: two threads of one process both hold it.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The lock file, in the folder whose files it guards.
+    """
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            import fcntl
+        except ImportError:                          # Windows
+            import msvcrt
+            while True:
+                try:
+                    msvcrt.locking(fd, msvcrt.LK_LOCK, 1)    # retries for 10 s, then raises
+                    break
+                except OSError:
+                    continue
+        else:
+            fcntl.lockf(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)                                 # releases the lock
 
 
 def _fsync_file(path: Path) -> None:

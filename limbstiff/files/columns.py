@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import NamedTuple, Sequence
 
-from ..errors import TrialError
+from ..errors import NotATrial, TrialError
 from ..units import FIELDS, STANDARD_QUANTITIES, UNITS, canonical_unit, parse_standard_header, split_header, \
     unit_in_header
 # in_si is imported from here by live.run
@@ -293,6 +293,9 @@ def _check_complete(file: _Listing, columns: dict[str, ColumnSpec], need_time: b
     """Error unless time (if needed), angle, and torque or elastic torque were all found."""
     where, noun, found = file.where, file.noun, file.found
     hint = _protocol_hint(file, columns)
+    if not hint and not {"time", "angle", "torque", "elastic_torque"} & set(columns):
+        raise NotATrial(where, f"not a trial: no time, angle or torque {noun} (expected time_s, angle_deg, "
+                               f"torque_Nm or the like; {found})")
     if need_time and "time" not in columns:
         raise TrialError(where, f"no time {noun} (expected time_s, time_ms or 'Time (s)'; {found}){hint}")
     if "angle" not in columns:

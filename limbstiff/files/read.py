@@ -7,7 +7,8 @@
 | ``.c3d`` | :func:`limbstiff.files.c3d.read_c3d` (through a protocol; the optional ``ezc3d`` extra) |
 | ``.xlsx`` | :func:`limbstiff.files.excel.read_xlsx` (one worksheet, read like text) |
 
-Old binary Excel workbooks (``.xls``) are refused with what to do (:data:`REFUSED`).
+Old binary Excel workbooks (``.xls``) and OpenDocument spreadsheets (``.ods``: pandas' reader
+needs ``odfpy``, not a dependency) are refused with what to do (:data:`REFUSED`).
 
 :data:`EXTENSIONS` is the one registry of file types: :func:`read_trial` reads what it lists,
 and a batch searches folders for the types it marks ``in_folders``
@@ -80,7 +81,9 @@ EXTENSIONS = FrozenDict({".csv": FileType(_read_text), ".tsv": FileType(_read_te
                          ".txt": FileType(_read_text, in_folders=False), ".mat": FileType(_read_mat),
                          ".c3d": FileType(_read_c3d), ".xlsx": FileType(_read_xlsx)})
 #: Extensions of trial formats that are not read, and what to do instead.
-REFUSED = FrozenDict({".xls": "an old binary Excel workbook (.xls) is not read: save it as .xlsx or .csv"})
+REFUSED = FrozenDict({".xls": "an old binary Excel workbook (.xls) is not read: save it as .xlsx or .csv",
+                      ".ods": "an OpenDocument spreadsheet (.ods) is not read: save it as .xlsx or .csv "
+                              "(LibreOffice: File > Save As)"})
 #: The extensions a batch searches folders for.
 FOLDER_EXTENSIONS = tuple(ext for ext, file_type in EXTENSIONS.items() if file_type.in_folders)
 
