@@ -26,7 +26,6 @@ from .estimate.kalman import fit_noise
 from .filtered import Filtered, filter_trial
 from .mechanics.least_squares import least_squares
 from .protocol import Protocol
-from .statespace.noise import NoiseLevels
 from .statespace.steps import kalman_decimation, model_steps
 from .trial import Trial
 
@@ -92,13 +91,10 @@ def _middle(trial: Trial) -> Trial:
     return trial.segment(start, start + n)
 
 
-def _score(filtered: Filtered, reference: np.ndarray,
-           warm: NoiseLevels | None) -> tuple[float | None, NoiseLevels]:
-    """The held-out score at ``filtered``'s corner and the noise levels it used: m and b by least
-    squares, the noise levels by maximum likelihood as the analysis fits them
-    (:func:`~limbstiff.estimate.kalman.fit_noise`; the smoothed course is not needed), from the
-    neighbouring corner's optimum ``warm`` when given (the corners are close: the optimum moves a
-    little; :func:`~limbstiff.statespace.noise.fit_levels` says why the first guess is searched from too)."""
+def _score(filtered: Filtered, reference: np.ndarray) -> float | None:
+    """The held-out score at ``filtered``'s corner: m and b by least squares, the noise levels by
+    maximum likelihood as the analysis fits them (:func:`~limbstiff.estimate.kalman.fit_noise`;
+    the smoothed course is not needed)."""
     if filtered.variant == "external":
         fit = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
                             sample_period=filtered.sample_period, window=WINDOW_PERIODS / filtered.motion_hz)
@@ -108,8 +104,8 @@ def _score(filtered: Filtered, reference: np.ndarray,
     steps = model_steps(filtered.angle, filtered.elastic_torque(m, b), sample_period=filtered.sample_period,
                         decimation=kalman_decimation(filtered.sample_period, filtered.cutoff_hz), edge=filtered.edge,
                         motion_frequency=filtered.motion_hz, scale_from=filtered.torque)
-    noise = fit_noise(steps, motion_frequency=filtered.motion_hz, warm=warm)
-    return heldout_explained(filtered, inertia=m, damping=b, noise=noise, reference=reference), noise
+    noise = fit_noise(steps, motion_frequency=filtered.motion_hz)
+    return heldout_explained(filtered, inertia=m, damping=b, noise=noise, reference=reference)
 
 
 def _at_corner(part: Trial, spectral: Filtered, corner_hz: float | None) -> Filtered:
@@ -163,11 +159,10 @@ def scan_corners(trial: Trial, protocol: Protocol) -> tuple[CornerScan, Filtered
     corners = corners_to_try(spectral)
     recorded = part.torque if spectral.variant == "external" else part.elastic_torque
     reference = spectral.chain.apply(recorded, 0)[0]
-    scores, kept, noise = [], {}, None
+    scores, kept = [], {}
     for c in corners:
         filtered = spectral if c == spectral.cutoff_hz else _at_corner(part, spectral, c)
-        score, noise = _score(filtered, reference, noise)
-        scores.append(score)
+        scores.append(_score(filtered, reference))
         if part is trial:
             kept[c] = filtered
     valid = [(c, s) for c, s in zip(corners, scores) if s is not None]

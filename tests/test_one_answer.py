@@ -136,12 +136,6 @@ def test_the_noise_fit_finds_the_optimum_a_shifted_walk_alone_misses():
     from limbstiff.statespace.noise import _nelder_mead
     without_grid = max(-_nelder_mead(lambda x: -loglik(x), x, bounds, 400).fun for x in first[:3])
     assert without_grid < 5.5                                       # the grid's start is what finds it
-    # warm (a scan's next corner): from the neighbour's optimum and the guess only, no grid
-    calls = []
-    warm, _ = fit_levels(lambda x: calls.append(x) or loglik(x), guess, bounds, 400, warm=good + 0.3)
-    assert np.linalg.norm(warm - good) < 1.5 and not any(np.array_equal(x, g) for x in calls
-                                                         for g in starts(loglik, guess, bounds)[3:])
-    assert fit_levels(loglik, guess, bounds, 400, warm=guess)[1] < 5.5   # a warm start from the guess's basin
 
 
 def test_the_analysis_and_the_diagnosis_fit_one_optimum_on_one_likelihood():

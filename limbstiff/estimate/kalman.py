@@ -73,12 +73,11 @@ class KalmanStiffness:
 
 def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: float, deflection: np.ndarray,
                      initial_mean, initial_cov, guess: NoiseLevels, motion_frequency: float,
-                     max_evaluations: int = 400, fading: float = 0.0,
-                     warm: NoiseLevels | None = None) -> tuple[NoiseLevels, float]:
+                     max_evaluations: int = 400, fading: float = 0.0) -> tuple[NoiseLevels, float]:
     """Maximum-likelihood noise levels within :func:`~limbstiff.statespace.noise.noise_bounds`, by
-    the one noise fit (:func:`~limbstiff.statespace.noise.fit_levels`) from ``guess`` (and from
-    ``warm``, a neighbouring model's optimum, alone when given), for the filter with the stiffness's
-    fading memory ``fading`` per step (0: none, offline; :func:`~limbstiff.statespace.smoother.kalman_loglik`).
+    the one noise fit (:func:`~limbstiff.statespace.noise.fit_levels`) from ``guess``, for the filter
+    with the stiffness's fading memory ``fading`` per step (0: none, offline;
+    :func:`~limbstiff.statespace.smoother.kalman_loglik`).
 
     Returns
     -------
@@ -92,7 +91,7 @@ def fit_noise_levels(increments: np.ndarray, measured: np.ndarray, *, step: floa
         return kalman_loglik(increments, measured, NoiseLevels(*np.exp(x)), step=step, deflection=deflection,
                              initial_mean=initial_mean, initial_cov=initial_cov, fading=fading)
 
-    best, value = fit_levels(loglik, x0, bounds, max_evaluations, warm=None if warm is None else warm.logs())
+    best, value = fit_levels(loglik, x0, bounds, max_evaluations)
     return NoiseLevels(*np.exp(best)), value
 
 
@@ -107,7 +106,7 @@ def data_guess(steps: ModelSteps) -> NoiseLevels:
     return NoiseLevels(measurement=resid, torque_walk=resid / duration, stiffness_walk=walk, coupled_walk=walk)
 
 
-def fit_noise(steps: ModelSteps, *, motion_frequency: float, warm: NoiseLevels | None = None) -> NoiseLevels:
+def fit_noise(steps: ModelSteps, *, motion_frequency: float) -> NoiseLevels:
     """Maximum-likelihood noise levels of the model on ``steps`` from :func:`data_guess`
     (:func:`fit_noise_levels`): what :func:`kalman_stiffness` fits, without the smoothing.
 
@@ -115,9 +114,6 @@ def fit_noise(steps: ModelSteps, *, motion_frequency: float, warm: NoiseLevels |
     ----------
     steps : ModelSteps
     motion_frequency : float, Hz
-    warm : NoiseLevels, optional
-        The optimum of a neighbouring model (the previous corner of a scan): searched from it and
-        from :func:`data_guess` alone (:func:`~limbstiff.statespace.noise.fit_levels`).
 
     Returns
     -------
@@ -125,7 +121,7 @@ def fit_noise(steps: ModelSteps, *, motion_frequency: float, warm: NoiseLevels |
     """
     noise, _ = fit_noise_levels(steps.increments, steps.measured, step=steps.step, deflection=steps.deflection,
                                 initial_mean=steps.initial_mean, initial_cov=steps.initial_cov,
-                                guess=data_guess(steps), motion_frequency=motion_frequency, warm=warm)
+                                guess=data_guess(steps), motion_frequency=motion_frequency)
     return noise
 
 

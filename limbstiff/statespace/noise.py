@@ -128,20 +128,14 @@ def starts(loglik, guess, bounds: list) -> list[np.ndarray]:
     values = [loglik(x) for x in grid]
     finite = [v if np.isfinite(v) else -np.inf for v in values]
     out.append(grid[int(np.argmax(finite))])
-    return _unique(out)
-
-
-def _unique(points: list) -> list:
-    """``points`` without repeats, in order."""
     unique = []
-    for x in points:
+    for x in out:
         if not any(np.array_equal(x, u) for u in unique):
             unique.append(x)
     return unique
 
 
-def fit_levels(loglik, guess, bounds: list, max_evaluations: int = 400, *,
-               warm=None) -> tuple[np.ndarray, float]:
+def fit_levels(loglik, guess, bounds: list, max_evaluations: int = 400) -> tuple[np.ndarray, float]:
     """The noise levels of the state-space model by maximum likelihood: the one noise fit.
 
     Nelder–Mead over the log levels within ``bounds`` (:func:`noise_bounds`) from each of
@@ -162,13 +156,6 @@ def fit_levels(loglik, guess, bounds: list, max_evaluations: int = 400, *,
         Bounds of the log levels.
     max_evaluations : int
         Likelihood evaluations allowed per start.
-    warm : array, shape (4,), optional
-        The optimum of a neighbouring likelihood (the same model at the next corner of a scan,
-        :func:`limbstiff.bandwidth.scan_corners`): the search then starts from it and from ``guess``
-        alone, not from each of :func:`starts`. Both are needed: the neighbour's optimum can rest on
-        a bound of the walks, where the clipped simplex stays (on the real z_pf trial, the lowest two
-        corners ended 2.7 and 17 log-likelihood units below the optimum from it alone), and the
-        first guess finds the basin the shifted walks and the grid are there for.
 
     Returns
     -------
@@ -182,9 +169,7 @@ def fit_levels(loglik, guess, bounds: list, max_evaluations: int = 400, *,
         return -value if np.isfinite(value) else 1e300
 
     best = None
-    lo, hi = np.array(bounds).T
-    first = [np.clip(np.asarray(x, dtype=float), lo, hi) for x in (warm, guess)] if warm is not None else None
-    for x0 in starts(loglik, guess, bounds) if first is None else _unique(first):
+    for x0 in starts(loglik, guess, bounds):
         res = _nelder_mead(negative, x0, bounds, max_evaluations)
         if best is None or res.fun < best.fun:
             best = res
