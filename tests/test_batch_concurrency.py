@@ -115,6 +115,30 @@ def test_two_processes_into_one_out_both_in_the_table_and_the_overview(trial_fil
 
 
 @pytest.mark.slow
+def test_a_dask_run_beside_a_local_one_into_one_out_both_in_the_table(trial_file, tmp_path):
+    """Two trials on a two-worker dask LocalCluster and two more in a local process at the same
+    time, into one --out: the table lists all four, and the overview too."""
+    distributed = pytest.importorskip("dask.distributed")
+    out = tmp_path / "out"
+    dask_folder, local_folder = tmp_path / "on-dask", tmp_path / "local"
+    for i, folder in enumerate((dask_folder, local_folder, dask_folder, local_folder)):
+        folder.mkdir(exist_ok=True)
+        trial_file(f"t{i}", folder=folder, seed=i, duration=4.0)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as local:
+        procs = [_analyze(dask_folder, "--out", out, "--scheduler", local.scheduler_address),
+                 _analyze(local_folder, "--out", out, "--jobs", 1)]
+        for proc in procs:
+            assert proc.wait(timeout=600) == 0, proc.stderr.read().decode()
+    assert _complete(out) == {"t0", "t1", "t2", "t3"}
+    table, ok = _ok_rows(out)
+    assert ok == {"t0", "t1", "t2", "t3"} and len(table) == 4
+    if shutil.which("pdftotext"):
+        text = subprocess.run(["pdftotext", str(out / "overview.pdf"), "-"], capture_output=True, text=True).stdout
+        assert all(f"t{i}" in text for i in range(4))
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("after", [0, 1, 2])
 def test_ctrl_c_leaves_the_table_listing_exactly_the_complete_trials(trial_file, tmp_path, after):
     folder = tmp_path / "trials"
