@@ -220,8 +220,8 @@ def slope_gloss(result) -> str:
 def gloss_rows(result, rows: list[tuple[str, str]]) -> list[tuple[str, str]]:
     """The glosses of the words of ``rows`` that a reader may not know ("informed", "background
     torque", the slope's unit), as ``("", gloss)`` rows, each once and only when it appears."""
-    text = " ".join(value for _, value in rows)
-    glosses = [INFORMED_GLOSS] if "informed" in text else []
+    text = " ".join(f"{label} {value}" for label, value in rows)
+    glosses = [INFORMED_GLOSS] if "informed" in text.lower() else []
     if "background torque" in text:
         glosses.append(BACKGROUND_GLOSS)
         if "torque" in result.trial.units and f"({result.trial.units['torque']})" in text:
