@@ -66,6 +66,24 @@ class CurveAnalysis:
     def against(self) -> str:
         return self.curve.against
 
+    @property
+    def pooled_over(self) -> str:
+        """What the curve is pooled over, in words: ``"12 cycles (every 1.5 s from 0 s)"``, or the
+        schedule's column."""
+        if self.against != "phase":
+            return str(self.prepared.get("how"))
+        return f"{self.prepared.get('n_cycles')} cycles ({self.prepared.get('how')})"
+
+    @property
+    def task_cycle_s(self) -> str | None:
+        """The length of the task's cycles in words (``"1.5 s"``, ``"0.95–1.1 s"`` when they differ),
+        None for a schedule."""
+        lengths = self.prepared.get("cycle_length_s")
+        if not lengths:
+            return None
+        lo, hi = lengths["min"], lengths["max"]
+        return f"{lengths['median']:.3g} s" if f"{lo:.2g}" == f"{hi:.2g}" else f"{lo:.2g}–{hi:.2g} s"
+
     def to_dict(self) -> dict:
         """JSON-ready (``by_phase`` / ``by_schedule`` of ``summary.json``)."""
         return jsonable({**self.curve.to_dict(), "resolution": self.resolution.to_dict(), **self.prepared})
@@ -92,8 +110,7 @@ class CurveAnalysis:
         from .digest import number
         d, res = self.curve.to_dict(), self.resolution
         units = "cycles" if self.against == "phase" else "stretches"
-        over = (f"{self.prepared.get('n_cycles')} cycles ({self.prepared.get('how')})" if self.against == "phase"
-                else str(self.prepared.get("how")))
+        over = self.pooled_over
         knots = (f"{res.chosen} knots" if res.chosen
                  else f"none finer than the walk (no curve predicted left-out {units} better)")
         level = f"{d['informed_bins']} of {d['bins']} bins informed"

@@ -13,6 +13,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .interval import Interval
+from .trial_level import BACKGROUND_PERIODS
 
 #: How each verdict reads, and its colour on page 1.
 VERDICT_WORDS = {
@@ -28,6 +29,10 @@ ANGLE_PROPERTY = "the joint's stiffness depends on its angle"
 ANGLE_VERDICT = "the stiffness varies with the angle within each cycle (see below)"
 #: Metadata lines on page 1 at most (the rest is in summary.json).
 METADATA_LINES = 6
+#: The words a reader may not know, in plain words: a one-line gloss where they appear.
+INFORMED_GLOSS = "informed: the samples where the motion lets the data say what the stiffness is"
+BACKGROUND_GLOSS = (f"background torque: the torque the joint holds on average (over {BACKGROUND_PERIODS:g} "
+                    "periods of the motion)")
 
 
 class CycleCourse(NamedTuple):
@@ -205,6 +210,50 @@ def headline_rows(result) -> list[tuple[str, str]]:
     return rows
 
 
+def slope_gloss(result) -> str:
+    """The slope's unit in plain words (``(N·m/rad)/(N·m): how much …``)."""
+    u = result.trial.units
+    return (f"({u['stiffness']})/({u['torque']}): how much the stiffness rises per {u['torque']} of "
+            "background torque")
+
+
+def gloss_rows(result, rows: list[tuple[str, str]]) -> list[tuple[str, str]]:
+    """The glosses of the words of ``rows`` that a reader may not know ("informed", "background
+    torque", the slope's unit), as ``("", gloss)`` rows, each once and only when it appears."""
+    text = " ".join(f"{label} {value}" for label, value in rows)
+    glosses = [INFORMED_GLOSS] if "informed" in text.lower() else []
+    if "background torque" in text:
+        glosses.append(BACKGROUND_GLOSS)
+        if "torque" in result.trial.units and f"({result.trial.units['torque']})" in text:
+            glosses.append(slope_gloss(result))
+    return [("In plain words" if k == 0 else "", g) for k, g in enumerate(glosses)]
+
+
+def task_cycle_s(result) -> str | None:
+    """The length of the task's cycles in words, when a curve analysis by phase cut the trial into
+    cycles (:attr:`~limbstiff.curve_result.CurveAnalysis.task_cycle_s`); None otherwise."""
+    curve = getattr(result, "curve", None)
+    return None if curve is None else curve.task_cycle_s
+
+
+def period_words(result, course: CycleCourse) -> tuple[str, str]:
+    """What one point of page 1's course stands for: (noun, its length in words). The period of
+    the trial's motion; under a curve analysis by phase that motion is the perturbation (the
+    movement every cycle repeats is taken off), so it is named so, beside the task's cycles."""
+    task = task_cycle_s(result)
+    if task is None:
+        return "motion cycle", f"{course.seconds:.3g} s"
+    return "perturbation period", f"{course.seconds:.3g} s; the task's cycles are {task}"
+
+
+def point_caption(result, course: CycleCourse) -> str:
+    """Page 1's caption of a point of the course: ``"a point per motion cycle of 0.912 s"``, or
+    ``"a point per perturbation period of 0.684 s (the task's cycles are 1.5 s)"``."""
+    noun, length = period_words(result, course)
+    seconds, _, task = length.partition("; ")
+    return f"a point per {noun} of {seconds}" + (f" ({task})" if task else "")
+
+
 def range_text(result) -> str:
     """The course's range on page 1: the lowest and highest median over one motion cycle (the
     resolution the data support, :func:`cycle_course`), over the informed cycles."""
@@ -212,8 +261,10 @@ def range_text(result) -> str:
     course = cycle_course(result)
     if course.informed.any():
         values = course.stiffness[course.informed]
+        noun, length = period_words(result, course)
+        plural = "cycles" if noun.endswith("cycle") else "periods"
         return (f"{number(np.min(values))} to {number(np.max(values), unit)}  — lowest and highest median over "
-                f"one motion cycle ({course.seconds:.3g} s), over the {values.size} informed cycles")
+                f"one {noun} ({length}), over the {values.size} informed {plural}")
     _, low, high = result.informed_stiffness()
     where = "informed samples" if result.observable.any() else "all samples: none is informed"
     return f"{number(low)} to {number(high, unit)} over the trial ({where}; no cycle is informed)"
@@ -285,7 +336,8 @@ def text_report(result, *, width: int = 100) -> str:
         lines += [textwrap.fill(r, width, initial_indent="  - ", subsequent_indent="    ")
                   for r in result.checks.reasons]
     lines.append("")
-    rows = headline_rows(result) + [("Warnings", w) for w in result.warnings] + recording_rows(result)
+    figures = headline_rows(result)
+    rows = figures + gloss_rows(result, figures) + [("Warnings", w) for w in result.warnings] + recording_rows(result)
     key = max(len(label) for label, _ in rows) + 2
     for label, text in rows:
         lines.append(textwrap.fill(text, width, initial_indent=f"{label:<{key}}",

@@ -142,3 +142,57 @@ def test_mismatched_sample_rate_names_the_file(tmp_path):
     assert len(failed) == 1 and "500 Hz, cycle1.csv at 1000 Hz" in failed[0]
     table = pd.read_csv(out / "summary.csv")
     assert table["status"][0] == "failed" and "cycle4.csv" in table["error"][0]
+
+
+@pytest.fixture(scope="module")
+def ensemble_result(tmp_path_factory):
+    """8 one-cycle files analysed in memory as the CLI's ``--ensemble`` does (a curve by phase)."""
+    import dataclasses
+
+    import limbstiff
+    from limbstiff.protocol import Cycles
+    folder = tmp_path_factory.mktemp("words") / "strides"
+    trial = read_ensemble(_cycle_files(folder))
+    protocol = dataclasses.replace(limbstiff.Protocol(), cycles=Cycles(marker=ENSEMBLE_MARKER))
+    return limbstiff.analyze(trial, protocol, inertia=0.015, damping=0.8, seed=0)
+
+
+def _words(fig) -> str:
+    return " ".join([t.get_text() for t in fig.texts] + [ax.get_title(loc="left") + " " + ax.get_xlabel()
+                                                         for ax in fig.axes])
+
+
+def test_the_curve_names_the_files_not_a_marker(ensemble_result):
+    """Issue 47: "one cycle per file, 8 files", never "rising edges of '<files>'"."""
+    from limbstiff.report.curve import curve_page
+    words = _words(curve_page(ensemble_result))
+    assert "one cycle per file, 8 files" in words and ENSEMBLE_MARKER not in words
+    assert ensemble_result.curve.to_dict()["how"] == "one cycle per file, 8 files"         # summary.json's
+    assert "one cycle per file, 8 files" in ensemble_result.curve.report()
+
+
+def test_page_one_under_a_curve_names_the_perturbation_beside_the_task_cycles(ensemble_result):
+    """Page 1's points are per period of the motion left when the movement every cycle repeats is
+    taken off: named the perturbation's, with the task's cycles beside it, never "motion cycle"."""
+    from limbstiff.digest import cycle_course, range_text
+    from limbstiff.report.pages import summary_page
+    course = cycle_course(ensemble_result)
+    words = _words(summary_page(ensemble_result))
+    assert (f"a point per perturbation period of {course.seconds:.3g} s (the task's cycles are 1 s)" in words)
+    assert "motion cycle" not in words
+    assert "over one perturbation period" in range_text(ensemble_result)
+    assert "the task's cycles are 1 s" in ensemble_result.report()
+
+
+def test_the_curve_page_carries_the_trials_verdict(ensemble_result):
+    """The curve's page says the trial's verdict with its reasons (the curve's own failed checks
+    first), not a list of ``ok`` checks beside it."""
+    from limbstiff.digest import verdict_line
+    from limbstiff.report.curve import curve_page
+    words = _words(curve_page(ensemble_result))
+    word, meaning, _ = verdict_line(ensemble_result)
+    assert f"Verdict: {word}" in words and meaning in words
+    for reason in ensemble_result.checks.reasons:
+        assert reason[:40] in words.replace("\n  ", " ")
+    assert "ok: " not in words and "FAILED" not in words
+    assert "the verdict above, the trial's, applies to the curve" in words.replace("\n", " ")

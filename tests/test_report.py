@@ -499,3 +499,24 @@ def test_fixed_ticks_are_the_ones_drawn_with_their_labels():
     assert len(ax.xaxis.get_majorticklocs()) == len(before[0])
     assert isinstance(log.yaxis.get_major_locator(), FixedLocator)
     assert not isinstance(ax.yaxis.get_major_locator(), FixedLocator)     # labels with an offset
+
+
+def test_page_one_glosses_its_words(elbow):
+    """Issue 47: "informed", "background torque" and the slope's unit each glossed in one line,
+    on page 1 and in the text report; the course's points are per motion cycle (no curve)."""
+    from limbstiff.digest import BACKGROUND_GLOSS, INFORMED_GLOSS
+    page = report_figures(elbow)[0]
+    words = " ".join(t.get_text() for t in page.texts)
+    slope = "(N·m/rad)/(N·m): how much the stiffness rises per N·m of background torque"
+    for gloss in (INFORMED_GLOSS, BACKGROUND_GLOSS, slope):
+        assert gloss.split(":")[0] in words and gloss in words.replace("\n", " ")
+        assert gloss in " ".join(elbow.report().split())
+    assert "a point per motion cycle of" in page.axes[0].get_xlabel()
+    assert "perturbation" not in words + page.axes[0].get_xlabel()
+
+
+def test_glosses_only_for_the_words_that_appear(elbow):
+    from limbstiff.digest import gloss_rows
+    assert gloss_rows(elbow, [("Median stiffness", "20 N·m/rad")]) == []
+    rows = gloss_rows(elbow, [("Informed by motion", "98 % of the trial")])
+    assert [label for label, _ in rows] == ["In plain words"] and rows[0][1].startswith("informed: ")

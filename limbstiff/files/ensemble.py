@@ -35,6 +35,9 @@ MIN_FILES = 5
 JOIN_S = 0.02
 #: The marker's name in messages (``Cycles(marker=ENSEMBLE_MARKER)``): the files, not a column.
 ENSEMBLE_MARKER = "<files>"
+#: How an ensemble's cycles were cut, in words (the curve's caption and ``how`` in summary.json),
+#: formatted with the number of files.
+ENSEMBLE_HOW = "one cycle per file, {} files"
 #: Relative difference of sample rates the files may have.
 RATE_TOLERANCE = 1e-6
 #: The arrays concatenated file by file (None in every file, or in none).

@@ -6,7 +6,8 @@ import textwrap
 
 import numpy as np
 
-from .common import FONT, grid, new_page, text_panel
+from .common import FONT, TITLE_HEIGHT, grid, new_page, text_panel
+from .pages import verdict_box
 
 
 def plot_curve(curve, *, ax=None, unit_stiffness: str = "N·m/rad", legend: bool = True):
@@ -39,27 +40,27 @@ def plot_curve(curve, *, ax=None, unit_stiffness: str = "N·m/rad", legend: bool
 
 
 def curve_page(result):
-    """The stiffness by phase or by schedule with its band, the resolution chosen, the curve's
-    checks. None for a plain analysis."""
+    """The stiffness by phase or by schedule with its band, the trial's verdict with the reasons
+    that concern the curve (its own failed checks first), how the curve was made. None for a
+    plain analysis."""
     analysis = getattr(result, "curve", None)
     if analysis is None:
         return None
     curve = analysis.curve
     fig = new_page(f"Stiffness by {'phase of the cycle' if curve.against == 'phase' else 'schedule'}")
-    gs = grid(fig, 2, 1, hspace=0.3, height_ratios=(1.5, 1))
+    top = verdict_box(fig, result, 1 - TITLE_HEIGHT - 0.01, _curve_reasons(result, analysis))
+    gs = grid(fig, 2, 1, hspace=0.3, height_ratios=(1.3, 1), top=top - 0.045)    # the plot's title above it
     ax = plot_curve(curve, ax=fig.add_subplot(gs[0]), unit_stiffness=result.trial.units["stiffness"], legend=False)
     if result.reference is not None:
         ax.plot(curve.at, analysis.binned(result.reference, result.observable), "--", color="tab:red", lw=1.2,
                 label="reference")
     ax.legend(loc="best", fontsize=FONT["small"], framealpha=0.85)
     prepared, res = analysis.prepared, analysis.resolution
-    where = (f"{prepared.get('n_cycles')} cycles ({prepared['how']})" if curve.against == "phase"
-             else prepared["how"])
     units = "cycles" if curve.against == "phase" else "stretches"
     resolution = (f"{res.chosen} knots (grey lines)" if res.chosen else
                   f"none finer than the walk (no curve predicted left-out {units} better)")
-    ax.set_title(textwrap.fill(f"Pooled over {where}; the curve's resolution: {resolution}, chosen by predicting "
-                               f"left-out {units}", 100),
+    ax.set_title(textwrap.fill(f"Pooled over {analysis.pooled_over}; the curve's resolution: {resolution}, chosen "
+                               f"by predicting left-out {units}", 100),
                  fontsize=FONT["small"], loc="left")
     rows = [("tried (knots: held-out log density)",
              ", ".join(f"{s.knots}: {s.score:.0f}" for s in res.scores))]
@@ -69,6 +70,18 @@ def curve_page(result):
     rows.append((f"{100 * curve.level:.0f} % band", "the estimate's own uncertainty (the walk, m, b, the curve's "
                  "weights); not yet calibrated: on an independent simulator it was too narrow, the curves "
                  "said ok within a few percent (docs/benchmarks.md)"))
-    rows += [(c.name, ("ok: " if c.passed else "FAILED: ") + c.message) for c in analysis.checks]
-    text_panel(fig, gs[1], rows, title="How the curve was made, and its checks", wrap=70)
+    passed = [c.message for c in analysis.checks if c.passed]
+    if passed and result.checks is not None:
+        rows.append(("the curve's own checks", "passed: " + "; ".join(passed) + f" (the verdict above, the "
+                     "trial's, applies to the curve)"))
+    text_panel(fig, gs[1], rows, title="How the curve was made", wrap=70)
     return fig
+
+
+def _curve_reasons(result, analysis) -> list[str]:
+    """The trial's reasons for its verdict, the curve's own failed checks first: the curve is the
+    trial's stiffness pooled by phase or schedule, so every reason concerns it."""
+    if result.checks is None:
+        return []
+    own = [c.message for c in analysis.checks if not c.passed]
+    return own + [r for r in result.checks.reasons if r not in own]

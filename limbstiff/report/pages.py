@@ -13,7 +13,7 @@ import textwrap
 
 import numpy as np
 
-from ..digest import headline_rows, recording_rows, verdict_line
+from ..digest import INFORMED_GLOSS, gloss_rows, headline_rows, recording_rows, verdict_line
 from ..trial_level import REFERENCE_SKIP_S
 from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, ROW_SPACING, envelope, envelope_band, fmt, grid,
                      key_value_lines, new_page, robust_limits, shade_false, text_panel)
@@ -33,13 +33,14 @@ def summary_page(result):
     fig = new_page()
     fig.text(0.06, 0.962, "Stiffness report", fontsize=FONT["title"], weight="bold", va="center")
     fig.text(0.94, 0.962, result.trial.name, fontsize=FONT["heading"], color="0.3", ha="right", va="center")
-    y = _verdict_box(fig, result, 0.935)
+    y = verdict_box(fig, result, 0.935)
     height = COURSE_HEIGHT[0]
     ax = fig.add_axes((0.1, y - height - 0.035, 0.84, height))        # room for the legend above it
     plot_stiffness(result, ax=ax)
     first = len(fig.texts)
-    y = _key_values(fig, headline_rows(result) + angle_rows(result), y - height - 0.08, fontsize=FONT["body"],
-                    wrap=80, title="The trial's figures")
+    figures = headline_rows(result) + angle_rows(result)
+    y = _key_values(fig, figures, y - height - 0.08, fontsize=FONT["body"], wrap=80, title="The trial's figures")
+    y = _key_values(fig, gloss_rows(result, figures), y + 0.005, fontsize=FONT["small"], wrap=95)
     recording = recording_rows(result)
     room = 0.036 + 2.4 * ROW_SPACING * 1.05 * FONT["small"] / 72 / A4[1]   # the recording's title, source, sampling
     y = _bullets(fig, "Warnings", list(result.warnings) or ["none"], y - 0.01, floor=FOOTER_HEIGHT + room + 0.01)
@@ -94,9 +95,10 @@ def angle_rows(result, figure=None) -> list[tuple[str, str]]:
                "that varies with the angle")]
 
 
-def _verdict_box(fig, result, y: float) -> float:
-    """The verdict in plain words, coloured, with the reasons below it, from height ``y`` (page
-    fraction) down; the height reached."""
+def verdict_box(fig, result, y: float, reasons: list[str] | None = None) -> float:
+    """The verdict in plain words, coloured, with the reasons below it (``reasons``, the checks'
+    by default), from height ``y`` (page fraction) down (page 1, and the curve's page: the same
+    verdict); the height reached."""
     verdict = verdict_line(result)
     if verdict is None:
         fig.text(0.06, y, "No model checks were run: no verdict.", fontsize=FONT["heading"], va="top")
@@ -104,7 +106,7 @@ def _verdict_box(fig, result, y: float) -> float:
     word, meaning, colour = verdict
     fig.text(0.06, y, f"Verdict: {word}", fontsize=FONT["heading"] + 2, weight="bold", color=colour, va="top")
     fig.text(0.33, y - 0.003, meaning, fontsize=FONT["body"] + 1, color=colour, va="top")
-    return _bullets(fig, None, list(result.checks.reasons), y - 0.03, limit=5)
+    return _bullets(fig, None, list(result.checks.reasons) if reasons is None else reasons, y - 0.03, limit=5)
 
 
 def _key_values(fig, rows: list[tuple[str, str]], y: float, *, fontsize: float, wrap: int,
@@ -165,7 +167,7 @@ def time_page(result):
     for ax in axes[:2]:
         ax.tick_params(labelbottom=False)
     axes[2].set_title(f"{result.variant} variant, {result.estimator} estimator; grey: not informed by motion "
-                      "(no estimate drawn there)", fontsize=FONT["small"], loc="right")
+                      f"(no estimate drawn there)\n{INFORMED_GLOSS}", fontsize=FONT["small"], loc="right")
     return fig
 
 
@@ -186,7 +188,8 @@ def relation_page(result):
             ax.legend(loc="upper right", framealpha=0.85)
     fig.axes[0].set_title("black: median of the estimate in bins of equal counts, bars: the median "
                           f"{100 * result.ci_level:.0f} % band there; blue: 10th–90th percentile of the estimate "
-                          "in the bin (its change over the trial)", fontsize=FONT["small"], loc="left", wrap=True)
+                          f"in the bin (its change over the trial). {INFORMED_GLOSS.capitalize()}",
+                          fontsize=FONT["small"], loc="left", wrap=True)
     if figure is not None:
         u, word = result.trial.units, names(result.trial)
         ax = plot_angle_course(fig.add_subplot(gs[2]), figure, units=u, word=word["angle"])

@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..digest import cycle_course
+from ..digest import cycle_course, period_words, point_caption
 from ..estimate.angle_terms import AngleCourse, AngleTerms, angle_course, fit_angle_terms
 from ..estimate.observer import informed_samples
 from ..statespace.steps import kalman_decimation, model_steps
@@ -82,8 +82,9 @@ def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = Tr
         course = cycle_course(result)
         ax.fill_between(course.time, course.lo, course.hi, color="C0", alpha=0.3, lw=0,
                         label=f"{100 * result.ci_level:.0f} % band")
+        noun, _ = period_words(result, course)
         ax.plot(course.time, course.stiffness, lw=1.0, color="C0", marker="o", ms=2.2,
-                label="median per motion cycle")
+                label=f"median per {noun}")
         values = [course.stiffness, course.lo, course.hi]
     else:
         values = _per_sample(ax, result)
@@ -96,7 +97,7 @@ def plot_stiffness(result, *, ax=None, reference: bool = True, legend: bool = Tr
     if limits is not None:
         ax.set_ylim(*limits)
     ax.set_xlim(t[0], t[-1])
-    ax.set_xlabel(f"time [s]  (a point per motion cycle of {course.seconds:.3g} s)" if per_cycle else "time [s]")
+    ax.set_xlabel(f"time [s]  ({point_caption(result, course)})" if per_cycle else "time [s]")
     ax.set_ylabel(f"stiffness [{u['stiffness']}]")
     if legend:
         ax.fill_between([], [], [], color="0.88", lw=0, label="not informed by motion")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..digest import INFORMED_GLOSS
 from .common import FONT, fmt, grid, is_constant, new_page, text_panel
 from .plots import names, recorded_torque
 
@@ -196,7 +197,8 @@ def quality_page(result):
                                     f"(memory {fmt(d.observer_memory, u['angle'], 3)})"),
                 ("informed window", f"{fmt(d.observable_window_s, 's', 3)}; speed above "
                                     f"{fmt(d.velocity_threshold, u['angle'] + '/s', 3)}"),
-                ("informed", f"{100 * result.observable_fraction:.1f} % of the samples")]
+                ("informed", f"{100 * result.observable_fraction:.1f} % of the samples: "
+                             + INFORMED_GLOSS.partition(": ")[2])]
     text_panel(fig, gs[0, 1], observer, title="Filter and observer", key_width=0.36, wrap=36,
                fontsize=FONT["small"])
     edge = bw.signal_edge_hz

@@ -63,7 +63,7 @@ def disagree_check(err: np.ndarray, *, noun: str, first_s: np.ndarray | None = N
     bad = disagreeing(err)
     n = int(np.isfinite(err).sum())
     if not len(bad):
-        return Check("curve_outlier_units", 0.0, 0.0, True, f"no {_one(noun)} stands out from the other {n}")
+        return Check("curve_outlier_units", 0.0, 0.0, True, f"none of the {n} {noun} stands out from the others")
     names = ", ".join(f"{k + 1}" + ("" if first_s is None else f" (at {first_s[k]:.1f} s)") for k in bad[:8])
     more = "" if len(bad) <= 8 else f" and {len(bad) - 8} more"
     return Check("curve_outlier_units", float(len(bad)), 0.0, False,

@@ -18,6 +18,7 @@ import numpy as np
 
 from .. import cycles
 from ..errors import TrialError
+from ..files.ensemble import ENSEMBLE_HOW, ENSEMBLE_MARKER
 from ..trial import Trial
 
 #: Held-out units of a schedule analysis: stretches of this many seconds (or 40 per record at
@@ -106,6 +107,8 @@ def _split(trial: Trial, spec, *, where: str) -> cycles.CycleSplit:
         if trial.marker is None:
             raise TrialError(where, f"no marker column '{spec.marker}' to cut the cycles at")
         split = cycles.by_marker(trial.marker, header=spec.marker)
+        if spec.marker == ENSEMBLE_MARKER:            # the files' own cycles, said as such
+            split = dataclasses.replace(split, how=ENSEMBLE_HOW.format(split.n_cycles))
     else:
         split = cycles.by_period(trial.n_samples, sample_period=trial.sample_period, period_s=spec.period_s,
                                  start_s=spec.start_s)
