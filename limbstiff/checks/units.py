@@ -36,11 +36,14 @@ def plausible(trial: Trial, protocol: Protocol) -> Findings:
     ------
     TrialError
         For an impossible one (a sample rate, angle or torque no limb has), naming the likely
-        unit and the protocol line that fixes it.
+        unit and the protocol line that fixes it; for a constant angle or torque (none recorded).
     """
-    torque = trial.torque if trial.torque is not None else trial.elastic_torque
+    torque, column = ((trial.torque, "torque") if trial.torque is not None else
+                      (trial.elastic_torque, "elastic_torque"))
+    stated = {q: protocol.columns[c].unit for q, c in (("angle", "angle"), ("torque", column))
+              if c in protocol.columns and protocol.columns[c].unit}
     found = plausibility.check_recording(trial.time, trial.angle, torque, rotational=trial.kind == "rotational",
-                                         limb=plausibility.limb_named(protocol.limb))
+                                         limb=plausibility.limb_named(protocol.limb), written=stated)
     if found and found[0].fatal:
         raise TrialError(trial.source or trial.name, found[0].message)
     return found

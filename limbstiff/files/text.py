@@ -30,7 +30,7 @@ from ..trial import Trial
 from .column_units import in_si, joint_kind, schedule_unit
 from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from .dialect import DECIMAL_COMMA, SNIFF_LINES, binary_kind, detect_layout, shown
-from .validate import checked_trial
+from .validate import checked_trial, empty_block
 
 _NAN_WORDS = {"nan", "-nan", "+nan", "na", "n/a", "#n/a", "null", "none"}
 _PANDAS_LINE = re.compile(r"Expected (\d+) fields in line (\d+), saw (\d+)")
@@ -280,8 +280,12 @@ def _parse(where, headers, columns, source, numbers, delimiter, decimal) -> dict
             bad = ~np.isfinite(numeric)
             if bad.any():
                 k = int(np.flatnonzero(bad)[0])
-                raise TrialError(where, _bad_cell(cells.iloc[k], numeric[k], column, numbers[k],
-                                                  None if field == "time" else values["time"][k], decimal))
+                problem = _bad_cell(cells.iloc[k], numeric[k], column, numbers[k],
+                                    None if field == "time" else values["time"][k], decimal)
+                if cells.iloc[k] == "":
+                    problem += "; " + empty_block((cells == "").to_numpy(), k, values["time"],
+                                                  lambda i: f"line {numbers[i]}")
+                raise TrialError(where, problem)
         values[field] = in_si(numeric, column)
     return values
 

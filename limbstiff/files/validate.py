@@ -97,6 +97,38 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
                  schedule_unit=schedule_unit, **values)
 
 
+def empty_block(empty: np.ndarray, k: int, time: np.ndarray | None, locate: Callable[[int], str]) -> str:
+    """How to proceed past the run of empty cells of one column that starts at row ``k``.
+
+    Parameters
+    ----------
+    empty : ndarray of bool, shape (n,)
+        Which cells of the column are empty.
+    k : int
+        The first empty one (0-based row).
+    time : ndarray, shape (n,), s, or None
+        The time column (None when the empty column is the time itself).
+    locate : callable
+        ``locate(i)`` says where row ``i`` is in the file (``"line 9002"``).
+
+    Returns
+    -------
+    str
+        What the block is and what to do: cut the trial there, or delete its rows and bridge the gap
+        they leave with the protocol's ``[format] max_gap_s`` (the value that bridges it given).
+    """
+    after = np.flatnonzero(~empty[k:])
+    stop = k + int(after[0]) if after.size else empty.size
+    block = f"{stop - k} empty cell(s) up to {locate(stop - 1)}" if stop - k > 1 else "one empty cell"
+    if time is None or k == 0 or stop == empty.size:
+        return f"{block}: delete those rows, or cut the trial before them"
+    gap = float(time[stop] - time[k - 1])
+    power = 10.0 ** (np.floor(np.log10(gap)) - 1)
+    bridge = float(np.ceil(gap / power * (1 + 1e-9)) * power)
+    return (f"{block} ({gap:.3g} s): delete those rows and bridge the gap they leave with [format] "
+            f"max_gap_s = {bridge:.2g} in the protocol, or cut the trial there")
+
+
 def _check_motion(where: str, angle: np.ndarray, kind: str) -> None:
     """Error unless the angle (position) takes at least three distinct values."""
     label = "angle" if kind == "rotational" else "position"
