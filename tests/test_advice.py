@@ -132,3 +132,12 @@ def test_an_empty_block_in_a_workbook_says_how_to_proceed(tmp_path):
     frame.to_excel(tmp_path / "book.xlsx", index=False)
     with pytest.raises(TrialError, match=r"100 empty cell\(s\) up to row 1101 .*max_gap_s = 0\.2"):
         read_trial(tmp_path / "book.xlsx")
+
+
+def test_a_trial_done_with_a_poor_verdict_is_not_called_ok():
+    from limbstiff.batch.runner import TrialOutcome
+    from limbstiff.cli.progress import _mark
+    row = type("Row", (), {"verdict": "unreliable", "output": "out/tiny"})()
+    mark = _mark(TrialOutcome("tiny", "tiny.csv", "ok", "", row))
+    assert mark.startswith("done, verdict unreliable") and "out/tiny/summary.json" in mark
+    assert _mark(TrialOutcome("a", "a.csv", "ok", "", type("Row", (), {"verdict": "ok"})())) == "ok"

@@ -57,9 +57,13 @@ def implausible_inertia(trial: Trial, protocol: Protocol, ident: Identification 
     any joint's (:func:`limbstiff.plausibility.limb_of`). The inertia gives the verdict
     ``unreliable``, not an error: it is identified with an uncertainty and an unusual attachment
     can be real, so the clinician still sees the numbers, marked as not to be used, with the unit
-    to check named in the reason. A given (not identified) inertia is not judged.
+    to check named in the reason. A given (not identified) inertia is not judged, nor one that
+    follows from an angle or torque range already found too small or too large (that finding
+    says what to check; the inertia's unit guess would contradict it).
     """
     if ident is None or ident.given or trial.kind != "rotational":
+        return found
+    if any(f.name in ("angle_range", "torque_range") for f in found):
         return found
     prior = protocol.inertia_prior
     limb = plausibility.limb_of(protocol.limb, expected_inertia=protocol.inertia_range,
