@@ -42,12 +42,14 @@ def sign_advice(scale: float = 1.0, column: str = "torque") -> str:
         return (f"{seen}: the protocol's [columns.{column}] already flips it (scale = {scale:g}) and this file's "
                 f"torque needs no flip; remove it (scale = {-scale:g}) and analyse again")
     if scale != 1:
-        return f"{seen} (a reaction torque?): set scale = {-scale:g} in the protocol's [columns.{column}] and analyse again"
+        return (f"{seen} (a reaction torque?): set scale = {-scale:g} in the protocol's [columns.{column}] "
+                "and analyse again")
     return (f"{seen} (a reaction torque?): add scale = -1 to [columns.{column}] of a protocol (--protocol) "
             "and analyse again")
 
 
-def torque_sign(filtered: Filtered, *, inertia: float, damping: float, scale: float = 1.0) -> Check:
+def torque_sign(filtered: Filtered, *, inertia: float, damping: float,
+                scale: float = 1.0) -> Check:
     """Whether the torque looks recorded with the opposite sign.
 
     Window by window (:data:`SIGN_WINDOW_PERIODS` motion periods), the torque left to the
@@ -68,7 +70,8 @@ def torque_sign(filtered: Filtered, *, inertia: float, damping: float, scale: fl
     # without m and b (direct variant) flipping only negates: the fit is the same, the slope tells
     wrong = rises_flipped and (gain > SIGN_MARGIN or (not rises and gain > -SIGN_MARGIN))
     return Check("torque_sign", gain, SIGN_MARGIN, not wrong,
-                 sign_advice(scale, _torque_column(filtered)) if wrong else "the torque rises with the angle as a torque applied to the joint does",
+                 sign_advice(scale, _torque_column(filtered)) if wrong else
+                 "the torque rises with the angle as a torque applied to the joint does",
                  UNRELIABLE)
 
 
@@ -77,10 +80,10 @@ def _torque_column(filtered: Filtered) -> str:
 
 
 def sign_hint(filtered: Filtered, *, scale: float = 1.0) -> str | None:
-    """:func:`sign_advice` (``scale``: the protocol's for the torque) when least squares finds a negative inertia and, with it, an elastic
-    torque falling with the angle — what a torque recorded with the opposite sign gives (both
-    change sign with the torque); None otherwise (a negative inertia alone can have other causes,
-    a delay between the channels for one)."""
+    """:func:`sign_advice` (``scale``: the protocol's for the torque) when least squares finds a
+    negative inertia and, with it, an elastic torque falling with the angle — what a torque
+    recorded with the opposite sign gives (both change sign with the torque); None otherwise (a
+    negative inertia alone can have other causes, a delay between the channels for one)."""
     from ..mechanics.least_squares import least_squares
     window = SIGN_WINDOW_PERIODS / filtered.motion_hz
     fit = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
