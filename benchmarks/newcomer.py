@@ -118,6 +118,7 @@ def first_line(text: str) -> str:
 
 
 def run(args: list[str], folder: Path) -> dict:
+    """One command in ``folder``: its exit code and the first line of its stderr and stdout."""
     started = time.perf_counter()
     done = subprocess.run(command() + args, cwd=folder, env=environment(), capture_output=True, text=True,
                           timeout=300)
@@ -201,7 +202,7 @@ def main() -> None:
         sections.append(("The results table under concurrency and Ctrl-C",
                          [("two analyze processes into one --out", r) for r in rows]
                          + [("Ctrl-C during a four-trial batch", interrupted(folder))]))
-    text = markdown(sections, time.perf_counter() - start)
+        text = markdown(sections, time.perf_counter() - start).replace(tmp, "<tmp>")
     (HERE / "newcomer.md").write_text(text + "\n", encoding="utf-8")
     print(text)
 

@@ -105,8 +105,8 @@ def _mechanics(filtered: Filtered, protocol: Protocol, spec: ModelSpecification,
                                    fit=None if spec.curve is None else spec.curve.fit)
     except TrialError as exc:
         hint = sign_hint(filtered, scale=_torque_scale(protocol, filtered.variant))
-        # the sign is the cause to fix, not the inertia: its advice alone, the symptom in brackets
-        raise (TrialError(exc.source, f"{hint} ({exc.problem.split(';')[0]})") if hint else exc) from None
+        # the sign is the cause to fix: the symptom, then the sign's advice alone (not the inertia's)
+        raise (TrialError(exc.source, f"{exc.problem.split(';')[0]}: {hint}") if hint else exc) from None
     return dataclasses.replace(ident, expected_inertia=protocol.inertia_range)
 
 
