@@ -51,6 +51,18 @@ def test_an_applied_torque_under_my_lab_is_told_to_remove_the_flip(tmp_path):
 
 
 @pytest.mark.slow
+def test_the_my_lab_error_says_remove_the_flip(tmp_path):
+    # the whole analysis from the file: the identification fails, the error leads to the flip
+    trial = multisine_trial("S01")
+    path = tmp_path / "S01.csv"
+    pd.DataFrame({"Zeit (ms)": trial.time * 1e3, "Winkel (°)": np.degrees(trial.angle),
+                  "Moment (Nm)": trial.torque}).to_csv(path, sep=";", decimal=",", index=False, float_format="%.9g")
+    with pytest.raises(TrialError, match=r"already flips it \(scale = -1\).*remove it \(scale = 1\)") as caught:
+        limbstiff.analyze(path, MY_LAB, seed=0)
+    assert "--inertia" not in str(caught.value)
+
+
+@pytest.mark.slow
 def test_a_failed_sign_check_says_what_to_change(tmp_path):
     elbow = multisine_trial("reaction")
     flipped = dataclasses.replace(elbow, torque=-elbow.torque)
