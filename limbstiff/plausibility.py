@@ -236,6 +236,8 @@ def check_angle(angle: np.ndarray, *, limb: Limb = ANY_JOINT, written: str | Non
     counts = bool(np.all(angle == np.round(angle))) and span >= 2
     fix = ("probably encoder counts; convert them in the protocol: [columns.angle] unit = \"rad\" with "
            "scale = 2π/(counts per turn), e.g. 0.001534 for 4096" if counts else
+           "not in the degrees written (encoder counts, hundredths of a degree?); convert it with "
+           "[columns.angle] scale in the protocol" if _stated(written, "deg") else
            "probably in degrees; say so in its header (angle_deg) or the protocol: [columns.angle] unit = \"deg\"")
     if span > limb.span or peak > MAX_ANGLE_RAD:
         return (Finding("angle_span", True, f"the angle spans {span:.3g} rad and reaches {peak:.3g} rad, more than "
@@ -254,7 +256,8 @@ def check_angle(angle: np.ndarray, *, limb: Limb = ANY_JOINT, written: str | Non
 def _stated(written: str | None, unit: str) -> bool:
     """Whether the protocol states ``unit`` (spelt ``Nm``, ``N·m``, ``N m``…)."""
     bare = (written or "").replace("·", "").replace("*", "").replace(" ", "").replace(".", "").lower()
-    return bare == unit.lower()
+    return {"°": "deg", "degree": "deg", "degrees": "deg", "radian": "rad", "radians": "rad"}.get(bare, bare) == \
+        unit.lower()
 
 
 def _small_angle(task: float, written: str | None) -> str:
@@ -289,10 +292,11 @@ def check_torque(torque: np.ndarray, *, limb: Limb = ANY_JOINT, written: str | N
         return (Finding("torque_constant", True, f"the torque is {torque[0]:g} N·m throughout: {recorded}; "
                                                  "check the torque channel and its column"),)
     if peak > limb.torque_max:
+        why = ("not in the N·mm written (a gauge's raw counts?); convert it with [columns.torque] scale in the "
+               "protocol" if _stated(written, "Nmm") else "probably in N·mm read as N·m; say so in its header "
+               "(torque_Nmm) or the protocol: [columns.torque] unit = \"Nmm\"")
         return (Finding("torque_size", True, f"the torque reaches {peak:.3g} N·m, more than {_of(limb)} can bear "
-                                             f"({limb.torque_max:g} N·m): it is probably in N·mm read as N·m; say so "
-                                             f"in its header (torque_Nmm) or the protocol: [columns.torque] unit = "
-                                             f"\"Nmm\""),)
+                                             f"({limb.torque_max:g} N·m): it is {why}"),)
     if task < limb.torque_min_range:
         slip = 1000 * task >= limb.torque_min_range and not _stated(written, "Nm")
         why = ("probably in N·m read as N·mm (or mN·m); say so in its header (torque_Nm) or the protocol: "
@@ -334,13 +338,16 @@ def check_recording(time: np.ndarray, angle: np.ndarray, torque: np.ndarray | No
     return tuple(sorted(found, key=lambda f: not f.fatal))
 
 
-def check_inertia(inertia: float, *, limb: Limb = ANY_JOINT) -> Finding | None:
+def check_inertia(inertia: float, *, limb: Limb = ANY_JOINT,
+                  written: Mapping[str, str] | None = None) -> Finding | None:
     """An identified inertia far outside what the limb allows: a unit of torque or angle misread.
 
     Parameters
     ----------
     inertia : float, kg·m²
     limb : Limb
+    written : mapping of str to str, optional
+        The units the torque and the angle were written in: a cause naming one is left out.
 
     Returns
     -------
@@ -350,10 +357,14 @@ def check_inertia(inertia: float, *, limb: Limb = ANY_JOINT) -> Finding | None:
     lo, hi = limb.inertia
     if lo / (1 + INERTIA_MARGIN) <= inertia <= hi * (1 + INERTIA_MARGIN):
         return None
-    cause = ("the torque in N·mm read as N·m ([columns.torque] unit = \"Nmm\") or the angle in radians read as "
-             "degrees ([columns.angle] unit = \"rad\")" if inertia > hi else
-             "the torque in N·m read as N·mm ([columns.torque] unit = \"Nm\") or the angle in degrees read as "
-             "radians ([columns.angle] unit = \"deg\")")
+    written = written or {}
+    causes = ((("torque", "Nmm"), "the torque in N·mm read as N·m ([columns.torque] unit = \"Nmm\")"),
+              (("angle", "rad"), "the angle in radians read as degrees ([columns.angle] unit = \"rad\")"))
+    if inertia < lo:
+        causes = ((("torque", "Nm"), "the torque in N·m read as N·mm ([columns.torque] unit = \"Nm\")"),
+                  (("angle", "deg"), "the angle in degrees read as radians ([columns.angle] unit = \"deg\")"))
+    cause = " or ".join(text for (q, unit), text in causes if not _stated(written.get(q), unit)) or \
+        "check the scale of the torque and of the angle"
     return Finding("inertia", False, f"the identified inertia {inertia:.3g} kg·m² is far outside {_of(limb)}'s "
                                      f"({lo:g}–{hi:g} kg·m²): a unit is probably wrong, {cause}")
 

@@ -16,7 +16,7 @@ from limbstiff.cli import main
 from limbstiff.errors import TrialError
 from limbstiff.files import read_trial, write_trial
 from limbstiff.filtering import filtered_for_analysis
-from limbstiff.plausibility import check_angle, check_torque
+from limbstiff.plausibility import check_angle, check_inertia, check_torque
 from limbstiff.protocol import Protocol, protocol_from_dict
 
 from .conftest import multisine_trial
@@ -103,6 +103,22 @@ def test_a_torque_of_zeros_is_named_before_any_fit_without_warnings(tmp_path):
     result = CliRunner().invoke(main, ["analyze", str(path), "--out", str(tmp_path / "out")])
     assert result.exit_code != 0
     assert "no torque was recorded" in result.output and "Warning" not in result.output
+
+
+def test_the_units_written_in_the_file_are_never_the_fix(tmp_path):
+    # 0.002 rad of motion under angle_rad: radians read as degrees would fit the numbers, but the
+    # header already says rad
+    trial = multisine_trial("small")
+    trial = dataclasses.replace(trial, angle=trial.angle * 0.002 / np.ptp(trial.angle))
+    read = read_trial(write_trial(trial, tmp_path / "small.csv"))
+    assert read.units_written["angle"] == "rad"
+    (found,) = plausible(read, Protocol())
+    assert 'unit = "rad"' not in found.message and "angle_rad" not in found.message
+    (unread,) = plausible(dataclasses.replace(read, units_written={}), Protocol())
+    assert "angle_rad" in unread.message
+    inertia = check_inertia(500.0, written={"angle": "rad", "torque": "N·m"})
+    assert "Nmm" in inertia.message and 'unit = "rad"' not in inertia.message
+    assert 'unit = "deg"' not in check_inertia(1e-9, written={"angle": "°"}).message
 
 
 def test_a_constant_angle_is_named():

@@ -38,15 +38,21 @@ def plausible(trial: Trial, protocol: Protocol) -> Findings:
         For an impossible one (a sample rate, angle or torque no limb has), naming the likely
         unit and the protocol line that fixes it; for a constant angle or torque (none recorded).
     """
-    torque, column = ((trial.torque, "torque") if trial.torque is not None else
-                      (trial.elastic_torque, "elastic_torque"))
-    stated = {q: protocol.columns[c].unit for q, c in (("angle", "angle"), ("torque", column))
-              if c in protocol.columns and protocol.columns[c].unit}
+    torque = trial.torque if trial.torque is not None else trial.elastic_torque
     found = plausibility.check_recording(trial.time, trial.angle, torque, rotational=trial.kind == "rotational",
-                                         limb=plausibility.limb_named(protocol.limb), written=stated)
+                                         limb=plausibility.limb_named(protocol.limb), written=_written(trial, protocol))
     if found and found[0].fatal:
         raise TrialError(trial.source or trial.name, found[0].message)
     return found
+
+
+def _written(trial: Trial, protocol: Protocol) -> dict[str, str]:
+    """The units the angle and the torque were written in (the file's, else the protocol's): what
+    an advice never names as the fix."""
+    column = "torque" if trial.torque is not None else "elastic_torque"
+    stated = {q: trial.units_written.get(c) or getattr(protocol.columns.get(c), "unit", None)
+              for q, c in (("angle", "angle"), ("torque", column))}
+    return {q: u for q, u in stated.items() if u}
 
 
 def implausible_inertia(trial: Trial, protocol: Protocol, ident: Identification | None,
@@ -68,7 +74,7 @@ def implausible_inertia(trial: Trial, protocol: Protocol, ident: Identification 
     prior = protocol.inertia_prior
     limb = plausibility.limb_of(protocol.limb, expected_inertia=protocol.inertia_range,
                                 prior=(prior.median, prior.sigma) if prior.distribution == "lognormal" else None)
-    inertia = plausibility.check_inertia(ident.inertia.median, limb=limb)
+    inertia = plausibility.check_inertia(ident.inertia.median, limb=limb, written=_written(trial, protocol))
     return found if inertia is None else (*found, inertia)
 
 

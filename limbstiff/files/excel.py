@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import TrialError
 from ..trial import Trial
 from ..units import UNITS
-from .column_units import in_si, joint_kind, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit, units_written
 from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from .dialect import is_number, looks_like, shown, unit_cell
 from .validate import checked_trial, empty_block
@@ -80,7 +80,8 @@ def read_xlsx(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     ignored = [h for i, h in enumerate(top.headers) if i not in used and h]
     warnings = ["ignored column(s): " + ", ".join(f"'{h}'" for h in ignored)] if ignored else []
     return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=top.metadata,
-                         warnings=warnings, locate=lambda k: f"row {numbers[k]}", schedule_unit=schedule_unit(columns))
+                         warnings=warnings, locate=lambda k: f"row {numbers[k]}", schedule_unit=schedule_unit(columns),
+                         units=units_written(columns))
 
 
 def _open(where: str, raw: bytes):

@@ -27,7 +27,7 @@ import pandas as pd
 
 from ..errors import TrialError
 from ..trial import Trial
-from .column_units import in_si, joint_kind, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit, units_written
 from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from .dialect import DECIMAL_COMMA, SNIFF_LINES, binary_kind, detect_layout, shown
 from .validate import checked_trial, empty_block
@@ -81,7 +81,8 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     values = _parse(where, layout.headers, columns, source, numbers, layout.delimiter, layout.decimal)
     return checked_trial(path, source_bytes, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
                          warnings=notes + _ignored(layout.headers, columns), locate=lambda k: f"line {numbers[k]}",
-                         schedule_unit=schedule_unit(columns))
+                         schedule_unit=schedule_unit(columns),
+                         units=units_written(columns))
 
 
 def _data_rows(raw: bytes, body: _Body | None, rows: list, skipped: int):

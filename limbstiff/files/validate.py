@@ -43,7 +43,7 @@ def read_bytes(path: Path) -> bytes:
 def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None], *, kind: str,
                   protocol=None, name: str | None = None, metadata: Mapping[str, str] | None = None,
                   warnings: list[str] | None = None, locate: Callable[[int], str],
-                  schedule_unit: str | None = None) -> Trial:
+                  schedule_unit: str | None = None, units: Mapping[str, str] | None = None) -> Trial:
     """Check and regularise the arrays read from one file, and build the Trial.
 
     Parameters
@@ -71,6 +71,8 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
         ``locate(k)`` says where sample ``k`` (0-based) is in the file, e.g. ``"line 7"``.
     schedule_unit : str or None
         The unit of ``values["schedule"]`` (an SI unit or a free one); None without a schedule.
+    units : mapping of str to str, optional
+        The unit each quantity was written in (the Trial's ``units_written``).
 
     Returns
     -------
@@ -94,7 +96,7 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
     return Trial(name=name if name is not None else path.stem, kind=kind, metadata=dict(metadata or {}),
                  source=where, source_sha256=hashlib.sha256(raw).hexdigest(),
                  warnings=(*notes, *(warnings or ())), bridged=bridged if gaps else None,
-                 schedule_unit=schedule_unit, **values)
+                 schedule_unit=schedule_unit, units_written=dict(units or {}), **values)
 
 
 def empty_block(empty: np.ndarray, k: int, time: np.ndarray | None, locate: Callable[[int], str]) -> str:
