@@ -104,9 +104,16 @@ def _mechanics(filtered: Filtered, protocol: Protocol, spec: ModelSpecification,
                                    effects=spec.effects, basis=spec.curve_terms,
                                    fit=None if spec.curve is None else spec.curve.fit)
     except TrialError as exc:
-        hint = sign_hint(filtered)
-        raise (TrialError(exc.source, f"{exc.problem}; {hint}") if hint else exc) from None
+        hint = sign_hint(filtered, scale=_torque_scale(protocol, filtered.variant))
+        # the sign is the cause to fix: the symptom, then the sign's advice alone (not the inertia's)
+        raise (TrialError(exc.source, f"{exc.problem.split(';')[0]}: {hint}") if hint else exc) from None
     return dataclasses.replace(ident, expected_inertia=protocol.inertia_range)
+
+
+def _torque_scale(protocol: Protocol, variant: str) -> float:
+    """The protocol's ``scale`` for the analysed torque's column (1 when it sets none)."""
+    column = protocol.columns.get("torque" if variant == "external" else "elastic_torque")
+    return 1.0 if column is None else float(column.scale)
 
 
 @dataclass(frozen=True)
@@ -200,7 +207,8 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
     figures = trial_level_figures(course.filtered, estimate, course.coefficients, observable, level=level,
                                   seed=seed, limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle)
     checks = check_analysis(course.filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
-                            noise=course.noise, coupling=coupling, corrected=corrected, angle_terms=angle)
+                            noise=course.noise, coupling=coupling, corrected=corrected, angle_terms=angle,
+                            torque_scale=_torque_scale(protocol, course.filtered.variant))
     reflex = reflex_check(_reflex_shift(course, ident, observable, level))
     curve = spec.curve and curve_analysis(prepared, spec.curve, estimate, ident, observable=observable,
                                           stiffness=stiffness, level=level, seed=seed)

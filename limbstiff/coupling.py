@@ -134,7 +134,8 @@ def dynamic_stiffness(angle: np.ndarray, torque: np.ndarray, fs: float):
     freq, pxy = signal.csd(x, y, fs=fs, nperseg=n)
     _, pxx = signal.welch(x, fs=fs, nperseg=n)
     _, pyy = signal.welch(y, fs=fs, nperseg=n)
-    coh = np.abs(pxy) ** 2 / pxx / pyy       # scipy.signal.coherence's own expression, without its two passes more
+    with np.errstate(divide="ignore", invalid="ignore"):   # a constant channel: no coherence (nan), no warning
+        coh = np.abs(pxy) ** 2 / pxx / pyy   # scipy.signal.coherence's own expression, without its two passes more
     segments = (len(x) - n) // (n // 2) + 1
     # half-overlapped Hann segments are worth ~1/1.9 independent ones each
     return freq, pxy / np.maximum(pxx, 1e-300), coh, max(1.0, segments / 1.9)

@@ -213,7 +213,7 @@ def check_time(time: np.ndarray) -> tuple[Finding, ...]:
     return ()
 
 
-def check_angle(angle: np.ndarray, *, limb: Limb = ANY_JOINT) -> tuple[Finding, ...]:
+def check_angle(angle: np.ndarray, *, limb: Limb = ANY_JOINT, written: str | None = None) -> tuple[Finding, ...]:
     """An angle too large or too small for a joint: degrees, radians or encoder counts misread.
 
     Parameters
@@ -222,16 +222,22 @@ def check_angle(angle: np.ndarray, *, limb: Limb = ANY_JOINT) -> tuple[Finding, 
         The angle as read (in rad if its unit is right).
     limb : Limb
         What the joint allows (:data:`ANY_JOINT` when none is named).
+    written : str or None
+        The unit the protocol states for the angle, if any: the advice never names it as the fix.
 
     Returns
     -------
     tuple of Finding
-        Fatal when the span exceeds the joint's range of motion or a full turn.
+        Fatal when the angle is constant or its span exceeds the joint's range of motion or a full turn.
     """
     span, peak, task = float(np.ptp(angle)), float(np.max(np.abs(angle))), _range(angle)
+    if span == 0:
+        return (Finding("angle_constant", True, f"the angle is {angle[0]:g} rad throughout: the joint did not move"),)
     counts = bool(np.all(angle == np.round(angle))) and span >= 2
     fix = ("probably encoder counts; convert them in the protocol: [columns.angle] unit = \"rad\" with "
            "scale = 2π/(counts per turn), e.g. 0.001534 for 4096" if counts else
+           "not in the degrees written (encoder counts, hundredths of a degree?); convert it with "
+           "[columns.angle] scale in the protocol" if _stated(written, "deg") else
            "probably in degrees; say so in its header (angle_deg) or the protocol: [columns.angle] unit = \"deg\"")
     if span > limb.span or peak > MAX_ANGLE_RAD:
         return (Finding("angle_span", True, f"the angle spans {span:.3g} rad and reaches {peak:.3g} rad, more than "
@@ -243,41 +249,68 @@ def check_angle(angle: np.ndarray, *, limb: Limb = ANY_JOINT) -> tuple[Finding, 
     if task < SMALLEST_TEST_MOTION:
         return (Finding("angle_range", False, f"the angle's range is only {task:.3g} rad ({math.degrees(task):.3g}°), "
                                               f"less than any stiffness test moves a joint ({SMALLEST_TEST_MOTION:g} "
-                                              f"rad): it is probably in radians read as degrees; say so in its "
-                                              f"header (angle_rad) or the protocol: [columns.angle] unit = \"rad\""),)
+                                              f"rad): {_small_angle(task, written)}"),)
     return ()
 
 
-def check_torque(torque: np.ndarray, *, limb: Limb = ANY_JOINT) -> tuple[Finding, ...]:
-    """A torque too large or too small for the limb: N·mm and N·m misread.
+def _stated(written: str | None, unit: str) -> bool:
+    """Whether the protocol states ``unit`` (spelt ``Nm``, ``N·m``, ``N m``…)."""
+    bare = (written or "").replace("·", "").replace("*", "").replace(" ", "").replace(".", "").lower()
+    return {"°": "deg", "degree": "deg", "degrees": "deg", "radian": "rad", "radians": "rad"}.get(bare, bare) == \
+        unit.lower()
+
+
+def _small_angle(task: float, written: str | None) -> str:
+    """Why an angle's 95 % range ``task`` (rad) is so small: radians read as degrees only where that
+    makes a test's motion and the degrees were not stated; else the joint barely moves."""
+    if math.degrees(task) >= SMALLEST_TEST_MOTION and not _stated(written, "rad"):
+        return ("it is probably in radians read as degrees; say so in its header (angle_rad) or the protocol: "
+                "[columns.angle] unit = \"rad\"")
+    return ("the joint barely moves, or the numbers are not radians (micro-radians, a gauge's volts?): "
+            "check the angle channel, and convert it with [columns.angle] scale in the protocol")
+
+
+def check_torque(torque: np.ndarray, *, limb: Limb = ANY_JOINT, written: str | None = None) -> tuple[Finding, ...]:
+    """A torque too large or too small for the limb: N·mm and N·m misread; none recorded.
 
     Parameters
     ----------
     torque : ndarray, shape (n,), N·m
         The torque as read (external or elastic).
     limb : Limb
+    written : str or None
+        The unit the protocol states for the torque, if any: the advice never names it as the fix.
 
     Returns
     -------
     tuple of Finding
-        Fatal when the torque exceeds what the limb can bear.
+        Fatal when the torque is constant (none was recorded) or exceeds what the limb can bear.
     """
     peak, task = float(np.max(np.abs(torque))), _range(torque)
+    if np.ptp(torque) == 0:
+        recorded = "no torque was recorded" if torque[0] == 0 else "no torque was recorded (only an offset)"
+        return (Finding("torque_constant", True, f"the torque is {torque[0]:g} N·m throughout: {recorded}; "
+                                                 "check the torque channel and its column"),)
     if peak > limb.torque_max:
+        why = ("not in the N·mm written (a gauge's raw counts?); convert it with [columns.torque] scale in the "
+               "protocol" if _stated(written, "Nmm") else "probably in N·mm read as N·m; say so in its header "
+               "(torque_Nmm) or the protocol: [columns.torque] unit = \"Nmm\"")
         return (Finding("torque_size", True, f"the torque reaches {peak:.3g} N·m, more than {_of(limb)} can bear "
-                                             f"({limb.torque_max:g} N·m): it is probably in N·mm read as N·m; say so "
-                                             f"in its header (torque_Nmm) or the protocol: [columns.torque] unit = "
-                                             f"\"Nmm\""),)
+                                             f"({limb.torque_max:g} N·m): it is {why}"),)
     if task < limb.torque_min_range:
+        slip = 1000 * task >= limb.torque_min_range and not _stated(written, "Nm")
+        why = ("probably in N·m read as N·mm (or mN·m); say so in its header (torque_Nm) or the protocol: "
+               "[columns.torque] unit = \"Nm\"" if slip else
+               "the torque barely changes, or the numbers are not N·m (a gauge's volts?): check the torque "
+               "channel, and convert it with [columns.torque] scale in the protocol")
         return (Finding("torque_range", False, f"the torque's range is only {task:.3g} N·m, less than any stiffness "
-                                               f"test of {_of(limb)} applies ({limb.torque_min_range:g} N·m): it is "
-                                               f"probably in N·m read as N·mm (or mN·m); say so in its header "
-                                               f"(torque_Nm) or the protocol: [columns.torque] unit = \"Nm\""),)
+                                               f"test of {_of(limb)} applies ({limb.torque_min_range:g} N·m): "
+                                               f"{'it is ' if slip else ''}{why}"),)
     return ()
 
 
 def check_recording(time: np.ndarray, angle: np.ndarray, torque: np.ndarray | None, *, rotational: bool = True,
-                    limb: Limb = ANY_JOINT) -> tuple[Finding, ...]:
+                    limb: Limb = ANY_JOINT, written: Mapping[str, str] | None = None) -> tuple[Finding, ...]:
     """Every check before the fit: time, and for a rotational joint the angle and the torque.
 
     Parameters
@@ -288,27 +321,33 @@ def check_recording(time: np.ndarray, angle: np.ndarray, torque: np.ndarray | No
     rotational : bool
         False for a translational spring (position and force): only the time is checked.
     limb : Limb
+    written : mapping of str to str, optional
+        The units the protocol states, by quantity (``angle``, ``torque``).
 
     Returns
     -------
     tuple of Finding
         The fatal ones first.
     """
+    written = written or {}
     found = list(check_time(time))
     if rotational:
-        found += check_angle(angle, limb=limb)
+        found += check_angle(angle, limb=limb, written=written.get("angle"))
         if torque is not None:
-            found += check_torque(torque, limb=limb)
+            found += check_torque(torque, limb=limb, written=written.get("torque"))
     return tuple(sorted(found, key=lambda f: not f.fatal))
 
 
-def check_inertia(inertia: float, *, limb: Limb = ANY_JOINT) -> Finding | None:
+def check_inertia(inertia: float, *, limb: Limb = ANY_JOINT,
+                  written: Mapping[str, str] | None = None) -> Finding | None:
     """An identified inertia far outside what the limb allows: a unit of torque or angle misread.
 
     Parameters
     ----------
     inertia : float, kg·m²
     limb : Limb
+    written : mapping of str to str, optional
+        The units the torque and the angle were written in: a cause naming one is left out.
 
     Returns
     -------
@@ -318,10 +357,14 @@ def check_inertia(inertia: float, *, limb: Limb = ANY_JOINT) -> Finding | None:
     lo, hi = limb.inertia
     if lo / (1 + INERTIA_MARGIN) <= inertia <= hi * (1 + INERTIA_MARGIN):
         return None
-    cause = ("the torque in N·mm read as N·m ([columns.torque] unit = \"Nmm\") or the angle in radians read as "
-             "degrees ([columns.angle] unit = \"rad\")" if inertia > hi else
-             "the torque in N·m read as N·mm ([columns.torque] unit = \"Nm\") or the angle in degrees read as "
-             "radians ([columns.angle] unit = \"deg\")")
+    written = written or {}
+    causes = ((("torque", "Nmm"), "the torque in N·mm read as N·m ([columns.torque] unit = \"Nmm\")"),
+              (("angle", "rad"), "the angle in radians read as degrees ([columns.angle] unit = \"rad\")"))
+    if inertia < lo:
+        causes = ((("torque", "Nm"), "the torque in N·m read as N·mm ([columns.torque] unit = \"Nm\")"),
+                  (("angle", "deg"), "the angle in degrees read as radians ([columns.angle] unit = \"deg\")"))
+    cause = " or ".join(text for (q, unit), text in causes if not _stated(written.get(q), unit)) or \
+        "check the scale of the torque and of the angle"
     return Finding("inertia", False, f"the identified inertia {inertia:.3g} kg·m² is far outside {_of(limb)}'s "
                                      f"({lo:g}–{hi:g} kg·m²): a unit is probably wrong, {cause}")
 

@@ -79,6 +79,10 @@ class Trial:
         as given (``"%MVC"``, ``"V"``); None exactly when there is no schedule.
     marker : ndarray, shape (n,), or None
         The raw values of the trigger (event) column whose rising edges start the movement cycles.
+    units_written : Mapping[str, str]
+        The unit each quantity was written in, in the file or its protocol, before conversion
+        (``{"angle": "rad", "torque": "Nm"}``): what a unit advice must not name as the fix. Empty
+        for a trial not read from a file.
     """
 
     name: str
@@ -96,6 +100,7 @@ class Trial:
     schedule: np.ndarray | None = None
     schedule_unit: str | None = None
     marker: np.ndarray | None = None
+    units_written: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self):
         where = self.source or self.name
@@ -135,6 +140,7 @@ class Trial:
             mask.setflags(write=False)
             object.__setattr__(self, "bridged", mask)
         object.__setattr__(self, "metadata", FrozenDict(self.metadata))
+        object.__setattr__(self, "units_written", FrozenDict(self.units_written))
         object.__setattr__(self, "warnings", tuple(self.warnings))
 
     @property

@@ -20,18 +20,44 @@ from .verdict import (AGREEMENT_MAX, ANGLE_CHANGE_MIN, ANGLE_VARIATION_MAX, ANGL
 SIGN_WINDOW_PERIODS = 4.0
 #: Share of the torque the opposite sign's elastic line must explain beyond the recorded sign's.
 SIGN_MARGIN = 0.1
-SIGN_ADVICE = ("the torque looks recorded with the opposite sign (a reaction torque?): set scale = -1 for it "
-               "in the protocol's [columns.torque] and analyse again")
 
 
-def torque_sign(filtered: Filtered, *, inertia: float, damping: float) -> Check:
+def sign_advice(scale: float = 1.0, column: str = "torque") -> str:
+    """What to change for a torque that looks recorded with the opposite sign, from the protocol as given.
+
+    Parameters
+    ----------
+    scale : float
+        The ``scale`` of the torque's column in the protocol (1 when it sets none).
+    column : {"torque", "elastic_torque"}
+        The column it applies to.
+
+    Returns
+    -------
+    str
+        Remove the flip that is there (a negative ``scale``), or add one.
+    """
+    seen = "the torque looks recorded with the opposite sign"
+    if scale < 0:
+        return (f"{seen}: the protocol's [columns.{column}] already flips it (scale = {scale:g}) and this file's "
+                f"torque needs no flip; remove it (scale = {-scale:g}) and analyse again")
+    if scale != 1:
+        return (f"{seen} (a reaction torque?): set scale = {-scale:g} in the protocol's [columns.{column}] "
+                "and analyse again")
+    return (f"{seen} (a reaction torque?): add scale = -1 to [columns.{column}] of a protocol (--protocol) "
+            "and analyse again")
+
+
+def torque_sign(filtered: Filtered, *, inertia: float, damping: float,
+                scale: float = 1.0) -> Check:
     """Whether the torque looks recorded with the opposite sign.
 
     Window by window (:data:`SIGN_WINDOW_PERIODS` motion periods), the torque left to the
     elastic element is fitted by a line in the angle. With the right sign that line explains
     most of it; with the wrong one −f − m·ÿ − b·ẏ is the elastic torque, and its line explains
     clearly more (by :data:`SIGN_MARGIN`) and rises with the angle, or as much while the recorded
-    one falls (the direct variant, where flipping only negates). Measured: right sign
+    one falls (the direct variant, where flipping only negates); ``scale`` is the protocol's for the
+    torque's column (the advice: :func:`sign_advice`). Measured: right sign
     0.54–1.00 of the torque explained (simulated elbow, wrist, ankle; real z_df, z_pf, z_pf2),
     the opposite sign 0.15–0.50; the slope alone misleads where m·ÿ outweighs the stiffness.
     """
@@ -44,25 +70,30 @@ def torque_sign(filtered: Filtered, *, inertia: float, damping: float) -> Check:
     # without m and b (direct variant) flipping only negates: the fit is the same, the slope tells
     wrong = rises_flipped and (gain > SIGN_MARGIN or (not rises and gain > -SIGN_MARGIN))
     return Check("torque_sign", gain, SIGN_MARGIN, not wrong,
-                 SIGN_ADVICE if wrong else "the torque rises with the angle as a torque applied to the joint does",
+                 sign_advice(scale, _torque_column(filtered)) if wrong else
+                 "the torque rises with the angle as a torque applied to the joint does",
                  UNRELIABLE)
 
 
-def sign_hint(filtered: Filtered) -> str | None:
-    """:data:`SIGN_ADVICE` when least squares finds a negative inertia and, with it, an elastic
-    torque falling with the angle — what a torque recorded with the opposite sign gives (both
-    change sign with the torque); None otherwise (a negative inertia alone can have other causes,
-    a delay between the channels for one)."""
+def _torque_column(filtered: Filtered) -> str:
+    return "torque" if filtered.variant == "external" else "elastic_torque"
+
+
+def sign_hint(filtered: Filtered, *, scale: float = 1.0) -> str | None:
+    """:func:`sign_advice` (``scale``: the protocol's for the torque) when least squares finds a
+    negative inertia and, with it, an elastic torque falling with the angle — what a torque
+    recorded with the opposite sign gives (both change sign with the torque); None otherwise (a
+    negative inertia alone can have other causes, a delay between the channels for one)."""
     from ..mechanics.least_squares import least_squares
     window = SIGN_WINDOW_PERIODS / filtered.motion_hz
     fit = least_squares(filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration,
                         sample_period=filtered.sample_period, window=window)
     if not (fit.inertia < 0 and fit.damping < 0):
         return None
-    check = torque_sign(filtered, inertia=-fit.inertia, damping=-fit.damping)
+    check = torque_sign(filtered, inertia=-fit.inertia, damping=-fit.damping, scale=scale)
     slopes = model.elastic_slopes(filtered.elastic_torque(fit.inertia, fit.damping), filtered.angle,
                                   window=max(8, int(round(window / filtered.sample_period))))[0]
-    return SIGN_ADVICE if (not check.passed or np.median(slopes) < 0) else None
+    return sign_advice(scale, _torque_column(filtered)) if (not check.passed or np.median(slopes) < 0) else None
 
 
 def _heldout(value: float | None) -> Check:
@@ -258,7 +289,7 @@ def _coupling(coupling: CouplingFit | None, corrected: bool) -> Check | None:
 def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                    observable: np.ndarray, ident: Identification | None, noise: NoiseLevels,
                    coupling: CouplingFit | None = None, corrected: bool = False,
-                   angle_terms: AngleTerms | None = None) -> ModelChecks:
+                   angle_terms: AngleTerms | None = None, torque_scale: float = 1.0) -> ModelChecks:
     """Every check of one analysis.
 
     Parameters
@@ -278,6 +309,8 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
     angle_terms : AngleTerms, optional
         The angle terms already fitted on the same model (:mod:`limbstiff.estimate.angle_terms`);
         fitted here when not given.
+    torque_scale : float
+        The protocol's ``scale`` for the torque's column (what the sign check's advice starts from).
 
     Returns
     -------
@@ -299,5 +332,5 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
               _noise_levels(model.bound_margins(filtered, **kw), negligible, share),
               _agreement(ident, filtered, stiffness, observable),
               _inertia_range(ident),
-              torque_sign(filtered, inertia=m, damping=b), _coupling(coupling, corrected)]
+              torque_sign(filtered, inertia=m, damping=b, scale=torque_scale), _coupling(coupling, corrected)]
     return ModelChecks(tuple(c for c in checks if c is not None))

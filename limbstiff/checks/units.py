@@ -36,14 +36,23 @@ def plausible(trial: Trial, protocol: Protocol) -> Findings:
     ------
     TrialError
         For an impossible one (a sample rate, angle or torque no limb has), naming the likely
-        unit and the protocol line that fixes it.
+        unit and the protocol line that fixes it; for a constant angle or torque (none recorded).
     """
     torque = trial.torque if trial.torque is not None else trial.elastic_torque
     found = plausibility.check_recording(trial.time, trial.angle, torque, rotational=trial.kind == "rotational",
-                                         limb=plausibility.limb_named(protocol.limb))
+                                         limb=plausibility.limb_named(protocol.limb), written=_written(trial, protocol))
     if found and found[0].fatal:
         raise TrialError(trial.source or trial.name, found[0].message)
     return found
+
+
+def _written(trial: Trial, protocol: Protocol) -> dict[str, str]:
+    """The units the angle and the torque were written in (the file's, else the protocol's): what
+    an advice never names as the fix."""
+    column = "torque" if trial.torque is not None else "elastic_torque"
+    stated = {q: trial.units_written.get(c) or getattr(protocol.columns.get(c), "unit", None)
+              for q, c in (("angle", "angle"), ("torque", column))}
+    return {q: u for q, u in stated.items() if u}
 
 
 def implausible_inertia(trial: Trial, protocol: Protocol, ident: Identification | None,
@@ -54,14 +63,18 @@ def implausible_inertia(trial: Trial, protocol: Protocol, ident: Identification 
     any joint's (:func:`limbstiff.plausibility.limb_of`). The inertia gives the verdict
     ``unreliable``, not an error: it is identified with an uncertainty and an unusual attachment
     can be real, so the clinician still sees the numbers, marked as not to be used, with the unit
-    to check named in the reason. A given (not identified) inertia is not judged.
+    to check named in the reason. A given (not identified) inertia is not judged, nor one that
+    follows from an angle or torque range already found too small or too large (that finding
+    says what to check; the inertia's unit guess would contradict it).
     """
     if ident is None or ident.given or trial.kind != "rotational":
+        return found
+    if any(f.name in ("angle_range", "torque_range") for f in found):
         return found
     prior = protocol.inertia_prior
     limb = plausibility.limb_of(protocol.limb, expected_inertia=protocol.inertia_range,
                                 prior=(prior.median, prior.sigma) if prior.distribution == "lognormal" else None)
-    inertia = plausibility.check_inertia(ident.inertia.median, limb=limb)
+    inertia = plausibility.check_inertia(ident.inertia.median, limb=limb, written=_written(trial, protocol))
     return found if inertia is None else (*found, inertia)
 
 

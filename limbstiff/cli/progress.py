@@ -66,7 +66,12 @@ def _mark(outcome) -> str:
         return "skipped, not a trial"
     if outcome.status != "ok":
         return f"FAILED: {outcome.error}"
-    return "up to date; --overwrite to redo" if getattr(outcome, "resumed", False) else "ok"
+    if getattr(outcome, "resumed", False):
+        return "up to date; --overwrite to redo"
+    verdict, output = getattr(outcome.row, "verdict", None), getattr(outcome.row, "output", None)
+    if verdict in (None, "ok"):
+        return "ok"
+    return f"done, verdict {verdict}" + (f" (why: {output}/summary.json, verdict_reasons)" if output else "")
 
 
 def _clock(seconds: float) -> str:

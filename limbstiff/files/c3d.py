@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .column_units import check_unit, in_si, joint_kind, schedule_unit
+from .column_units import check_unit, in_si, joint_kind, schedule_unit, units_written
 from .columns import READ_FIELDS, ColumnSpec
 from ..units import FIELD_DIMENSIONS, UNITS, free_unit_clash
 from .validate import checked_trial
@@ -81,7 +81,8 @@ def read_c3d(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
     metadata = _metadata(c3d, columns, kind=kind, rate=rate, first=first)
     return checked_trial(path, raw, values, kind=joint,
                          protocol=protocol, name=name, metadata=metadata, warnings=[],
-                         locate=lambda k: f"{kind} frame {k + 1}", schedule_unit=schedule_unit(specs))
+                         locate=lambda k: f"{kind} frame {k + 1}", schedule_unit=schedule_unit(specs),
+                         units=units_written(specs))
 
 
 def _mapped_columns(where: str, protocol) -> dict:

@@ -34,6 +34,11 @@ def schedule_unit(columns: dict[str, ColumnSpec]) -> str | None:
     return None if column is None else schedule_si(np.zeros(0), column.unit)[1]
 
 
+def units_written(columns: dict[str, ColumnSpec]) -> dict[str, str]:
+    """The unit each quantity's column was written in (the Trial's ``units_written``)."""
+    return {field: c.unit for field, c in columns.items() if field not in ("schedule", "marker") and c.unit}
+
+
 def agree(where, noun, header, first, second) -> None:
     """Error if two statements of a column's unit (``(who, unit)``, unit may be None) differ."""
     (who1, unit1), (who2, unit2) = first, second

@@ -23,10 +23,10 @@ import numpy as np
 from ..errors import TrialError
 from ..trial import Trial
 from ..units import UNITS
-from .column_units import in_si, joint_kind, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit, units_written
 from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from .dialect import is_number, looks_like, shown, unit_cell
-from .validate import checked_trial
+from .validate import checked_trial, empty_block
 
 
 def read_xlsx(path: Path, raw: bytes, protocol=None, *, name: str | None = None) -> Trial:
@@ -80,7 +80,8 @@ def read_xlsx(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     ignored = [h for i, h in enumerate(top.headers) if i not in used and h]
     warnings = ["ignored column(s): " + ", ".join(f"'{h}'" for h in ignored)] if ignored else []
     return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=top.metadata,
-                         warnings=warnings, locate=lambda k: f"row {numbers[k]}", schedule_unit=schedule_unit(columns))
+                         warnings=warnings, locate=lambda k: f"row {numbers[k]}", schedule_unit=schedule_unit(columns),
+                         units=units_written(columns))
 
 
 def _open(where: str, raw: bytes):
@@ -202,16 +203,24 @@ def _values(where: str, columns: dict[str, ColumnSpec], numbers: list[int],
         if not all(ok):
             k = ok.index(False)
             time = None if field == "time" else values["time"][k]
-            raise TrialError(where, _bad_cell(raw[k], column, numbers[k], time))
+            problem = _bad_cell(raw[k], column, numbers[k], time)
+            if _empty(raw[k]):
+                problem += "; " + empty_block(np.array([_empty(v) for v in raw]), k, values["time"],
+                                              lambda i: f"row {numbers[i]}")
+            raise TrialError(where, problem)
         values[field] = in_si(np.array(raw, dtype=float), column)
     return values
+
+
+def _empty(cell) -> bool:
+    return cell is None or (isinstance(cell, str) and not cell.strip())
 
 
 def _bad_cell(cell, column: ColumnSpec, row: int, time: float | None) -> str:
     at = f"in column '{column.header}' ({_letter(column.index)}) at row {row}"
     if time is not None:
         at += f" (t = {time:g} s)"
-    if cell is None or (isinstance(cell, str) and not cell.strip()):
+    if _empty(cell):
         return f"empty cell {at}"
     if isinstance(cell, str):
         hint = " (a number stored as text: format the column as numbers)" if is_number(cell.strip()) else ""

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import TrialError
 from ..trial import Trial
-from .column_units import in_si, joint_kind, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit, units_written
 from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from ..units import parse_standard_header, split_header
 from .validate import checked_trial
@@ -96,7 +96,8 @@ def read_mat(path: Path, raw: bytes, protocol=None, *, name: str | None = None) 
             values[field] = _channel(where, column, arrays[column.header], first.header, n, values["time"])
     metadata, warnings = _leftovers({k: v for k, v in variables.items() if k not in used})
     return checked_trial(path, raw, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
-                         warnings=warnings, locate=lambda k: f"sample {k + 1}", schedule_unit=schedule_unit(columns))
+                         warnings=warnings, locate=lambda k: f"sample {k + 1}", schedule_unit=schedule_unit(columns),
+                         units=units_written(columns))
 
 
 def _protocol_arrays(where: str, variables: dict, protocol) -> tuple[dict[str, np.ndarray], bool]:

@@ -27,10 +27,10 @@ import pandas as pd
 
 from ..errors import TrialError
 from ..trial import Trial
-from .column_units import in_si, joint_kind, schedule_unit
+from .column_units import in_si, joint_kind, schedule_unit, units_written
 from .columns import READ_FIELDS, ColumnSpec, resolve_columns
 from .dialect import DECIMAL_COMMA, SNIFF_LINES, binary_kind, detect_layout, shown
-from .validate import checked_trial
+from .validate import checked_trial, empty_block
 
 _NAN_WORDS = {"nan", "-nan", "+nan", "na", "n/a", "#n/a", "null", "none"}
 _PANDAS_LINE = re.compile(r"Expected (\d+) fields in line (\d+), saw (\d+)")
@@ -81,7 +81,8 @@ def read_text(path: Path, raw: bytes, protocol=None, *, name: str | None = None)
     values = _parse(where, layout.headers, columns, source, numbers, layout.delimiter, layout.decimal)
     return checked_trial(path, source_bytes, values, kind=kind, protocol=protocol, name=name, metadata=metadata,
                          warnings=notes + _ignored(layout.headers, columns), locate=lambda k: f"line {numbers[k]}",
-                         schedule_unit=schedule_unit(columns))
+                         schedule_unit=schedule_unit(columns),
+                         units=units_written(columns))
 
 
 def _data_rows(raw: bytes, body: _Body | None, rows: list, skipped: int):
@@ -280,8 +281,12 @@ def _parse(where, headers, columns, source, numbers, delimiter, decimal) -> dict
             bad = ~np.isfinite(numeric)
             if bad.any():
                 k = int(np.flatnonzero(bad)[0])
-                raise TrialError(where, _bad_cell(cells.iloc[k], numeric[k], column, numbers[k],
-                                                  None if field == "time" else values["time"][k], decimal))
+                problem = _bad_cell(cells.iloc[k], numeric[k], column, numbers[k],
+                                    None if field == "time" else values["time"][k], decimal)
+                if cells.iloc[k] == "":
+                    problem += "; " + empty_block((cells == "").to_numpy(), k, values["time"],
+                                                  lambda i: f"line {numbers[i]}")
+                raise TrialError(where, problem)
         values[field] = in_si(numeric, column)
     return values
 

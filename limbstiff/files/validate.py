@@ -43,7 +43,7 @@ def read_bytes(path: Path) -> bytes:
 def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None], *, kind: str,
                   protocol=None, name: str | None = None, metadata: Mapping[str, str] | None = None,
                   warnings: list[str] | None = None, locate: Callable[[int], str],
-                  schedule_unit: str | None = None) -> Trial:
+                  schedule_unit: str | None = None, units: Mapping[str, str] | None = None) -> Trial:
     """Check and regularise the arrays read from one file, and build the Trial.
 
     Parameters
@@ -71,6 +71,8 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
         ``locate(k)`` says where sample ``k`` (0-based) is in the file, e.g. ``"line 7"``.
     schedule_unit : str or None
         The unit of ``values["schedule"]`` (an SI unit or a free one); None without a schedule.
+    units : mapping of str to str, optional
+        The unit each quantity was written in (the Trial's ``units_written``).
 
     Returns
     -------
@@ -94,7 +96,39 @@ def checked_trial(path: Path, raw: bytes, values: Mapping[str, np.ndarray | None
     return Trial(name=name if name is not None else path.stem, kind=kind, metadata=dict(metadata or {}),
                  source=where, source_sha256=hashlib.sha256(raw).hexdigest(),
                  warnings=(*notes, *(warnings or ())), bridged=bridged if gaps else None,
-                 schedule_unit=schedule_unit, **values)
+                 schedule_unit=schedule_unit, units_written=dict(units or {}), **values)
+
+
+def empty_block(empty: np.ndarray, k: int, time: np.ndarray | None, locate: Callable[[int], str]) -> str:
+    """How to proceed past the run of empty cells of one column that starts at row ``k``.
+
+    Parameters
+    ----------
+    empty : ndarray of bool, shape (n,)
+        Which cells of the column are empty.
+    k : int
+        The first empty one (0-based row).
+    time : ndarray, shape (n,), s, or None
+        The time column (None when the empty column is the time itself).
+    locate : callable
+        ``locate(i)`` says where row ``i`` is in the file (``"line 9002"``).
+
+    Returns
+    -------
+    str
+        What the block is and what to do: cut the trial there, or delete its rows and bridge the gap
+        they leave with the protocol's ``[format] max_gap_s`` (the value that bridges it given).
+    """
+    after = np.flatnonzero(~empty[k:])
+    stop = k + int(after[0]) if after.size else empty.size
+    block = f"{stop - k} empty cell(s) up to {locate(stop - 1)}" if stop - k > 1 else "one empty cell"
+    if time is None or k == 0 or stop == empty.size:
+        return f"{block}: delete those rows, or cut the trial before them"
+    gap = float(time[stop] - time[k - 1])
+    power = 10.0 ** (np.floor(np.log10(gap)) - 1)
+    bridge = float(np.ceil(gap / power * (1 + 1e-9)) * power)
+    return (f"{block} ({gap:.3g} s): delete those rows and bridge the gap they leave with [format] "
+            f"max_gap_s = {bridge:.2g} in the protocol, or cut the trial there")
 
 
 def _check_motion(where: str, angle: np.ndarray, kind: str) -> None:

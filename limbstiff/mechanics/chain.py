@@ -9,6 +9,8 @@ states give (the posterior of m, b and the noise levels) is :mod:`limbstiff.mech
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from .proposal import StudentProposal
@@ -88,30 +90,35 @@ def run_chain(problem, start, rng: np.random.Generator):
     """
     import emcee
 
-    log_prob = _log_prob(problem)
-    state = _start_walkers(problem.bounds, start, rng)
-    # differential-evolution moves: integrated autocorrelation times of ~15 steps here against
-    # ~45 with the default stretch move (the stiffness walk's posterior often rests on a bound)
-    de = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
-    random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
-    state, moves, random_state, share = _adapted(problem, log_prob, state, de, random_state)
-    discarded = ADAPT_ROUNDS * ADAPT_STEPS
-    sampler = _sampler(log_prob, problem.bounds.shape[0], moves, random_state)
-    steps = 0
-    while True:
-        state = sampler.run_mcmc(state, BLOCK_STEPS, progress=False)
-        steps += BLOCK_STEPS
-        tau = autocorr_time(sampler.get_chain())
-        # NaN: a walker has not moved yet, and the chain is not long enough either
-        long_enough = steps >= MIN_TAU_MULTIPLE * np.max(tau) and steps - burn_in(steps, tau) >= KEPT_STEPS
-        if long_enough or steps >= MAX_STEPS:
-            return sampler, steps, tau, share, discarded
-        if share and steps == FALLBACK_STEPS and not np.max(tau) <= FALLBACK_TAU:
-            # the proposal does not fit this posterior (a plateau, an L-shaped ridge): the chain
-            # starts again from here with differential evolution alone
-            random_state, share, discarded = sampler.random_state, 0.0, discarded + steps
-            sampler = _sampler(log_prob, problem.bounds.shape[0], de, random_state)
-            steps = 0
+    with warnings.catch_warnings():
+        # a walker at a log-probability of nan or -inf (a degenerate recording) is emcee's to
+        # reject; numpy's RuntimeWarnings about it are not for the user's terminal
+        warnings.simplefilter("ignore", RuntimeWarning)
+
+        log_prob = _log_prob(problem)
+        state = _start_walkers(problem.bounds, start, rng)
+        # differential-evolution moves: integrated autocorrelation times of ~15 steps here against
+        # ~45 with the default stretch move (the stiffness walk's posterior often rests on a bound)
+        de = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+        random_state = np.random.RandomState(int(rng.integers(2 ** 32))).get_state()
+        state, moves, random_state, share = _adapted(problem, log_prob, state, de, random_state)
+        discarded = ADAPT_ROUNDS * ADAPT_STEPS
+        sampler = _sampler(log_prob, problem.bounds.shape[0], moves, random_state)
+        steps = 0
+        while True:
+            state = sampler.run_mcmc(state, BLOCK_STEPS, progress=False)
+            steps += BLOCK_STEPS
+            tau = autocorr_time(sampler.get_chain())
+            # NaN: a walker has not moved yet, and the chain is not long enough either
+            long_enough = steps >= MIN_TAU_MULTIPLE * np.max(tau) and steps - burn_in(steps, tau) >= KEPT_STEPS
+            if long_enough or steps >= MAX_STEPS:
+                return sampler, steps, tau, share, discarded
+            if share and steps == FALLBACK_STEPS and not np.max(tau) <= FALLBACK_TAU:
+                # the proposal does not fit this posterior (a plateau, an L-shaped ridge): the chain
+                # starts again from here with differential evolution alone
+                random_state, share, discarded = sampler.random_state, 0.0, discarded + steps
+                sampler = _sampler(log_prob, problem.bounds.shape[0], de, random_state)
+                steps = 0
 
 
 def _log_prob(problem):
