@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import signal
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -113,7 +114,7 @@ def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome
                 progress(outcomes[i], i + 1, len(jobs))
         return [o for o in outcomes if o is not None]
     own = executor is None
-    pool = ProcessPoolExecutor(max_workers=n_jobs) if own else executor
+    pool = ProcessPoolExecutor(max_workers=n_jobs, initializer=_quiet_on_interrupt) if own else executor
     if not own:
         cwd = os.getcwd()
         jobs = [dataclasses.replace(job, cwd=cwd) for job in jobs]
@@ -133,6 +134,16 @@ def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome
             for fut in futures:
                 fut.cancel()
     return [o for o in outcomes if o is not None]
+
+
+def _quiet_on_interrupt() -> None:
+    """A worker process ends on Ctrl-C (its process group's SIGINT) without printing a traceback:
+    the batch's own process says what happened, and a trial cut short leaves no complete outputs."""
+    signal.signal(signal.SIGINT, _exit_quietly)
+
+
+def _exit_quietly(signum, frame):
+    raise SystemExit(128 + signum)
 
 
 #: Exception names of executors whose worker died under a task (the task itself may be fine).
