@@ -4,7 +4,8 @@ on an otherwise idle machine and beside a CPU-bound process.
     python benchmarks/suite_times.py [--only full,fast] [--load-only | --idle-only]
 
 Each run is the command as a developer types it (``python -m pytest -q``, the project's addopts:
-two xdist processes, a file to each), from the repository's root. "Loaded" runs start one process
+two xdist processes, a file to each), from the repository's root; a run of one mode keeps the
+section's rows of the other. "Loaded" runs start one process
 that spins on the CPU for as long as the suite runs (a second user on the 2-core machine); the
 suite must pass under it. Writes section ``test-suite`` of RESULTS.md: per run the wall time, the
 counts pytest printed, and whether it passed.
@@ -54,6 +55,16 @@ def run(name: str, loaded: bool) -> dict:
             "counts": last[-1].strip("= ") if last else done.stdout[-200:]}
 
 
+def _previous_rows() -> list[str]:
+    """The table rows of the section as it stands (a run of one mode keeps the other's rows)."""
+    from _results import RESULTS
+    text = RESULTS.read_text(encoding="utf-8") if RESULTS.exists() else ""
+    if "<!-- test-suite:start -->" not in text:
+        return []
+    section = text.split("<!-- test-suite:start -->", 1)[1].split("<!-- test-suite:end -->", 1)[0]
+    return [ln for ln in section.splitlines() if ln.startswith("| full |") or ln.startswith("| fast |")]
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", default="full,fast")
@@ -66,11 +77,14 @@ def main(argv=None) -> int:
         for name in args.only.split(","):
             rows.append(run(name, loaded))
             print(rows[-1], flush=True)
+    measured = [(r["suite"], "loaded" if r["loaded"] else "idle") for r in rows]
+    kept = [row for row in _previous_rows() if tuple(c.strip() for c in row.split("|")[1:3]) not in measured]
     lines = [f"## Test suite (`benchmarks/suite_times.py`)", "",
              f"Machine: {machine()}. `full` is the README's `python -m pytest -q` (which `.ci/run` runs); `fast` "
              f"is the inner loop `python -m pytest -q -m \"not slow\"`. Loaded: beside one process spinning on "
              f"the CPU for the whole run. Targets: full ≤ 5 min idle, fast ≤ 90 s; both pass loaded.", "",
              "| suite | machine | wall | passed | pytest's count |", "|---|---|---|---|---|"]
+    lines += kept
     for r in rows:
         lines.append(f"| {r['suite']} | {'loaded' if r['loaded'] else 'idle'} | {r['wall_s'] / 60:.1f} min "
                      f"({r['wall_s']:.0f} s) | {'yes' if r['passed'] else '**no**'} | {r['counts']} |")
