@@ -52,6 +52,9 @@ _XML_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*\Z")
 #: liblsl's log level on the terminal unless the user's configuration sets one: fatal errors only
 #: (-2, errors, would still show the ERR line of every sender that closes its outlet).
 LOG_LEVEL = -3
+#: How long :meth:`StreamReader.sender_present` listens before it answers, s (a resolver's first
+#: replies come within a few of its 0.5 s query waves on a network, within 0.1 s on one machine).
+WATCH_S = 1.5
 _configured = False
 
 
@@ -327,6 +330,7 @@ class StreamReader:
             raise StreamError(self._label, "the description was not resolved on the network; get it "
                                            "from find_stream")
         flags = pylsl.proc_clocksync | (pylsl.proc_dejitter if dejitter else 0)
+        self._watch = None          # (resolver, since when) while no sample comes: sender_present
         self._buffer = np.empty((0, max(1, description.n_channels)), dtype=_dtype(description))
         self._offset, self._offset_at = float("nan"), -np.inf
         self.last_data_at = float("nan")
@@ -380,6 +384,7 @@ class StreamReader:
         n = stamps.size
         if n:
             self.last_data_at = pulled_at
+            self._watch = None
         if pulled_at - self._offset_at > 5.0:
             self._refresh_offset(timeout=0.0)
         return StreamChunk(timestamps=np.array(stamps, dtype=np.float64),
@@ -396,6 +401,26 @@ class StreamReader:
             time.sleep(0.001)
         _, stamps = pull(timeout=0.0, max_samples=max_samples, dest_obj=buffer)
         return np.asarray(stamps, dtype=np.float64)
+
+    def sender_present(self) -> bool | None:
+        """Whether an outlet of this stream (its name, type and ``source_id``) is on the network now:
+        asked while no sample comes, to tell a stream that ended (its sender closed the outlet) from
+        one that stalled. None until :data:`WATCH_S` s after the first call since the last sample (a
+        resolver's first replies); then what the resolver has seen within the last 2 s."""
+        if self._inlet is None:
+            return None
+        if self._watch is None:
+            d = self.description
+            predicate = _predicate(self._label, name=d.name, type=d.type, source_id=d.source_id or None)
+            try:
+                resolver = self._pylsl.ContinuousResolver(pred=predicate, forget_after=2.0)
+            except Exception:       # not known: the caller says "stalled or ended"
+                return None
+            self._watch = (resolver, time.monotonic())
+        resolver, since = self._watch
+        if time.monotonic() - since < WATCH_S:
+            return None
+        return bool(resolver.results())
 
     def _refresh_offset(self, timeout: float) -> None:
         try:
@@ -415,7 +440,7 @@ class StreamReader:
 
     def close(self) -> None:
         """Close the inlet (idempotent)."""
-        inlet, self._inlet = self._inlet, None
+        inlet, self._inlet, self._watch = self._inlet, None, None
         if inlet is not None:
             try:
                 inlet.close_stream()
