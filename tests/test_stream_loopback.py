@@ -79,7 +79,7 @@ def test_the_command_ends_with_the_recording_and_the_offline_analysis(session):
     result, sent, out, _ = session
     assert result.exit_code == 0, result.output
     assert "duration 29 s reached" in result.output
-    table = np.loadtxt(out / "session1.csv", delimiter=",", comments="#", skiprows=8)
+    table = np.loadtxt(out / "session1.csv", delimiter=",", comments="#", skiprows=7)
     n = len(table)
     assert 29000 <= n <= len(sent)
     # the recording is what was sent: the values to the bit, the times on the stream's 1 ms grid
@@ -166,8 +166,8 @@ def test_a_restarted_sender_and_a_stall_end_with_both_parts_recorded_and_analyse
     info = json.loads((tmp_path / "s" / "stream.json").read_text())
     assert info["recordings"] == ["s.csv", "s-2.csv"] and len(info["breaks"]) == 1
     # liblsl loses the first ~1.2 s of the new sender's samples while it reconnects (files.lsl)
-    first = np.loadtxt(tmp_path / "s.csv", delimiter=",", comments="#", skiprows=8)
-    second = np.loadtxt(tmp_path / "s-2.csv", delimiter=",", comments="#", skiprows=8)
+    first = np.loadtxt(tmp_path / "s.csv", delimiter=",", comments="#", skiprows=7)
+    second = np.loadtxt(tmp_path / "s-2.csv", delimiter=",", comments="#", skiprows=7)
     np.testing.assert_array_equal(first[:, 1:], sent[:len(first)])
     tail = sent[7000:]
     start = int(np.flatnonzero((tail == second[0, 1:]).all(axis=1))[0])

@@ -84,7 +84,7 @@ def user_config() -> Path | None:
     folder, ``~/lsl_api/lsl_api.cfg``, ``/etc/lsl_api/lsl_api.cfg`` (the first readable); None."""
     named = os.environ.get("LSLAPICFG")
     places = [Path(named)] if named else []
-    places += [Path("lsl_api.cfg"), Path.home() / "lsl_api" / "lsl_api.cfg", Path("/etc/lsl_api/lsl_api.cfg")]
+    places += [Path.cwd() / "lsl_api.cfg", Path.home() / "lsl_api" / "lsl_api.cfg", Path("/etc/lsl_api/lsl_api.cfg")]
     return next((path for path in places if path.is_file() and os.access(path, os.R_OK)), None)
 
 
