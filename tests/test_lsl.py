@@ -21,7 +21,7 @@ from .support.lsl_loopback import Publisher, restarted, unique_name, use_loopbac
 use_loopback()          # before the first pylsl call of this process
 
 from limbstiff.errors import StreamError  # noqa: E402
-from limbstiff.files import lsl, lsl_outlet  # noqa: E402
+from limbstiff.files import lsl, lsl_config, lsl_outlet  # noqa: E402
 
 needs_pylsl = pytest.mark.skipif(importlib.util.find_spec("pylsl") is None, reason="pylsl not installed")
 
@@ -290,27 +290,27 @@ def test_liblsl_config_adds_a_quiet_log_level_to_the_users_own(tmp_path, monkeyp
     level; LSLAPICFG is the file read (else liblsl's own places: lsl_api.cfg here first)."""
     mine = tmp_path / "mine.cfg"
     mine.write_text("[lab]\nSessionID = my-lab ; ours\n\n[log]\nfile = lsl.log\n")
-    text = lsl.liblsl_config(mine)
+    text = lsl_config.liblsl_config(mine)
     assert text.startswith("[lab]\nSessionID = my-lab ; ours\n\n[log]\nfile = lsl.log\n")
-    assert text.rstrip().endswith("[log]\nlevel = -3") and lsl.LOG_LEVEL == -3
+    assert text.rstrip().endswith("[log]\nlevel = -3") and lsl_config.LOG_LEVEL == -3
     chosen = tmp_path / "chosen.cfg"
     chosen.write_text("[Log]\n level = 0  ; liblsl's INFO lines, please\n")
-    assert lsl.liblsl_config(chosen) == chosen.read_text()          # the user's level stands
+    assert lsl_config.liblsl_config(chosen) == chosen.read_text()          # the user's level stands
     commented = tmp_path / "commented.cfg"
     commented.write_text("[log]\n; level = 0\n")
-    assert "level = -3" in lsl.liblsl_config(commented)
+    assert "level = -3" in lsl_config.liblsl_config(commented)
     monkeypatch.setenv("LSLAPICFG", str(mine))
-    assert lsl.user_config() == mine and lsl.liblsl_config() == text
+    assert lsl_config.user_config() == mine and lsl_config.liblsl_config() == text
     monkeypatch.delenv("LSLAPICFG")
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("HOME", str(tmp_path))
     (tmp_path / "lsl_api.cfg").write_text("[ports]\nIPv6 = disable\n")
-    assert lsl.user_config() == tmp_path / "lsl_api.cfg"
-    assert lsl.liblsl_config().startswith("[ports]\nIPv6 = disable\n\n")
+    assert lsl_config.user_config() == tmp_path / "lsl_api.cfg"
+    assert lsl_config.liblsl_config().startswith("[ports]\nIPv6 = disable\n\n")
     (tmp_path / "lsl_api.cfg").unlink()
     if not Path("/etc/lsl_api/lsl_api.cfg").exists():
-        assert lsl.user_config() is None
-        assert lsl.liblsl_config().endswith("[log]\nlevel = -3\n")
+        assert lsl_config.user_config() is None
+        assert lsl_config.liblsl_config().endswith("[log]\nlevel = -3\n")
 
 
 @needs_pylsl

@@ -22,25 +22,21 @@ What liblsl does underneath:
   its start, and one pull blocks ~1.6 s inside liblsl while it reconnects.
 * **Its log**: liblsl writes INFO lines, and an ``ERR`` line whenever a sender closes its outlet
   (``Stream transmission broke off … re-connecting``: a normal end of a stream), on stderr, over the
-  terminal's status line. :func:`liblsl_config` sets ``[log] level = -3`` (fatal errors only) unless
-  the user's own configuration sets a level: limbstiff's first LSL call hands liblsl the user's
-  configuration file (``LSLAPICFG``, else where liblsl looks: ``lsl_api.cfg`` in the working
-  folder, ``~/lsl_api/lsl_api.cfg``, ``/etc/lsl_api/lsl_api.cfg``) with that line added
-  (``set_config_content``, liblsl ≥ 1.17.7; with an older one liblsl reads the file itself).
+  terminal's status line: limbstiff's first LSL call hands liblsl the user's configuration with
+  ``[log] level = -3`` added unless it sets a level (:mod:`.lsl_config`).
 """
 
 from __future__ import annotations
 
 import inspect
-import os
 import re
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import StreamError
+from .lsl_config import hand_over
 
 INSTALL_HINT = "pylsl is not installed: pip install 'limbstiff[stream]'"
 _NOT_FOUND = ("no LSL stream found within {timeout:g} s; check that the acquisition software is "
@@ -49,9 +45,6 @@ _NOT_FOUND = ("no LSL stream found within {timeout:g} s; check that the acquisit
 #: liblsl's channel formats (lsl_channel_format_t) by number
 _FORMATS = {1: "float32", 2: "double64", 3: "string", 4: "int32", 5: "int16", 6: "int8", 7: "int64"}
 _XML_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*\Z")
-#: liblsl's log level on the terminal unless the user's configuration sets one: fatal errors only
-#: (-2, errors, would still show the ERR line of every sender that closes its outlet).
-LOG_LEVEL = -3
 #: How long :meth:`StreamReader.sender_present` listens before it answers, s (a resolver's first
 #: replies come within a few of its 0.5 s query waves on a network, within 0.1 s on one machine).
 WATCH_S = 1.5
@@ -60,7 +53,7 @@ _configured = False
 
 def _pylsl(source: str):
     """pylsl, imported; StreamError(source, install hint) when it is missing or cannot load liblsl.
-    The first time, liblsl is handed its configuration (:func:`liblsl_config`) before any LSL call."""
+    The first time, liblsl is handed its configuration (:mod:`.lsl_config`) before any LSL call."""
     global _configured
     try:
         import pylsl
@@ -72,38 +65,8 @@ def _pylsl(source: str):
                                   f"PYLSL_LIB to liblsl's path") from None
     if not _configured:
         _configured = True
-        try:
-            pylsl.set_config_content(liblsl_config())
-        except (AttributeError, NotImplementedError):     # liblsl < 1.17.7: it reads the file itself
-            pass
+        hand_over(pylsl)
     return pylsl
-
-
-def user_config() -> Path | None:
-    """The configuration file liblsl would read: ``LSLAPICFG``, else ``lsl_api.cfg`` in the working
-    folder, ``~/lsl_api/lsl_api.cfg``, ``/etc/lsl_api/lsl_api.cfg`` (the first readable); None."""
-    named = os.environ.get("LSLAPICFG")
-    places = [Path(named)] if named else []
-    places += [Path.cwd() / "lsl_api.cfg", Path.home() / "lsl_api" / "lsl_api.cfg", Path("/etc/lsl_api/lsl_api.cfg")]
-    return next((path for path in places if path.is_file() and os.access(path, os.R_OK)), None)
-
-
-def liblsl_config(path: Path | None = None) -> str:
-    """liblsl's configuration as limbstiff gives it: the user's file (``path``, by default
-    :func:`user_config`) as it is, plus ``[log] level =`` :data:`LOG_LEVEL` when it sets no level."""
-    path = user_config() if path is None else path
-    text = path.read_text(encoding="utf-8", errors="replace") if path is not None else ""
-    section, has_level = "", False
-    for line in text.splitlines():
-        line = line.split(";", 1)[0].strip()
-        if line.startswith("[") and line.endswith("]"):
-            section = line[1:-1].strip().lower()
-        elif section == "log" and line.split("=", 1)[0].strip().lower() == "level" and "=" in line:
-            has_level = True
-    if has_level:
-        return text
-    head = f"{text.rstrip()}\n\n" if text.strip() else ""
-    return f"{head}; added by limbstiff: liblsl's log off the terminal\n[log]\nlevel = {LOG_LEVEL}\n"
 
 
 def _label(name: str | None, type: str | None) -> str:
