@@ -16,6 +16,7 @@ from limbstiff.checks.verdict import CAUTION, OK, Verdict
 from limbstiff.live.checks import HINDSIGHT_Z, TRACKING_Z, VERDICT_NAMES, hindsight, live_checks
 from limbstiff.live.estimator import LiveEstimator, LiveModel
 from limbstiff.live.session import Immediately, LiveSession, identification_due
+from limbstiff.live.status import status_line
 from limbstiff.statespace import kernels
 from limbstiff.statespace.noise import NoiseLevels
 from limbstiff.statespace.smoother import at_steps
@@ -252,7 +253,7 @@ def test_growing_table_is_exact_and_readable_before_it_is_closed(tmp_path):
     path = table.close()
     assert path == tmp_path / "rec.csv" and not (tmp_path / "rec.csv.partial").exists()
     back = np.loadtxt(path, delimiter=",", comments="#", skiprows=3)
-    np.testing.assert_array_equal(back, rows)        # 17 significant digits: the same float64
+    np.testing.assert_array_equal(back, rows)        # shortest round-trip text: the same float64
     with pytest.raises(ValueError, match="3 columns"):
         GrowingTable(tmp_path / "other.csv", ["a", "b", "c"]).append(np.zeros((1, 2)))
 
@@ -356,11 +357,70 @@ def test_the_recording_time_always_increases_and_reads_back(tmp_path):
     paths = rec.close()
     assert [p.name for p in paths] == ["s.csv", "s-3.csv"]
     assert (tmp_path / "s-2.csv").read_text() == "another trial's file\n"
-    time = np.loadtxt(paths[0], delimiter=",", comments="#", skiprows=4)[:, 0]   # 2 metadata lines, header, units
+    time = np.loadtxt(paths[0], delimiter=",", comments="#", skiprows=3)[:, 0]   # 2 metadata lines, header
     assert np.all(np.diff(time) > 0)
     assert np.round(np.diff(time) * fs).max() == 31          # the gap kept: 30 missing samples
     trial = read_trial(paths[0])
     assert trial.n_samples > n                               # the gap bridged, nothing refused
+
+
+def test_the_recording_headers_carry_their_units():
+    from limbstiff.files.recording import unit_headers
+
+    headers, units = unit_headers(["time_s", "angle", "torque_Nm", "channel_2", "k", "marker", "schedule"],
+                                  ["s", "deg", "Nm", "N·m", "Nm_per_rad", None, "%MVC"])
+    assert headers == ["time_s", "angle_deg", "torque_Nm", "channel_2_N·m", "k_Nm_per_rad", "marker", "schedule_%MVC"]
+    assert units is None
+    # what cannot be said in a header keeps the headers as given and the unit row
+    assert unit_headers(["time_s", "EMG"], ["s", "uV"]) == (["time_s", "EMG"], ["s", "uV"])
+    assert unit_headers(["time_s", "angle_deg"], ["s", "rad"]) == (["time_s", "angle_deg"], ["s", "rad"])
+    assert unit_headers(["time_s", "angle", "angle_deg"], ["s", "deg", None])[1] == ["s", "deg", ""]
+
+
+def test_the_recording_is_a_standard_trial_file_read_back_to_the_bit(tmp_path):
+    """No unit row (pandas reads floats), shortest round-trip numbers (24.998, not
+    24.998000000000001), and limbstiff's reader gives back the values received, to the bit; a
+    channel labelled ``angle`` of unit ``deg`` is ``angle_deg``, a protocol's ``channel_1`` found."""
+    import pandas as pd
+
+    from limbstiff.files import read_trial
+    from limbstiff.files.recording import SegmentedRecording
+    from limbstiff.protocol.reading import protocol_from_dict
+
+    fs, n = 200.0, 6000
+    rng = np.random.default_rng(3)
+    values = np.column_stack([0.3 * np.sin(np.arange(n) / 20) + 1e-3 * rng.normal(size=n),
+                              rng.normal(size=n) * 10.0 ** rng.integers(-6, 3, size=n)])
+    rec = SegmentedRecording(tmp_path, "r", ["angle_rad", "torque_Nm"], ["rad", "Nm"], {"stream": "x"}, fs)
+    rec.segment(10.0)
+    rec.append(10.0 + np.arange(n) / fs, values)
+    path, = rec.close()
+    lines = path.read_text().splitlines()
+    assert lines[2] == "time_s,angle_rad,torque_Nm" and lines[3].startswith("0.0,")
+    assert any(line.startswith("24.995,") for line in lines)          # not 24.995000000000001
+    table = pd.read_csv(path, comment="#")
+    assert list(table.dtypes) == [np.float64] * 3
+    np.testing.assert_array_equal(table.to_numpy(), np.column_stack([np.arange(n) / fs, values]))
+    trial = read_trial(path)
+    np.testing.assert_array_equal(trial.angle, values[:, 0])
+    np.testing.assert_array_equal(trial.torque, values[:, 1])
+    np.testing.assert_allclose(trial.time, np.arange(n) / fs, rtol=0, atol=1e-12)   # the reader's own grid
+
+    rec = SegmentedRecording(tmp_path, "d", ["angle", "channel_1"], ["deg", "Nm"], {"stream": "x"}, fs)
+    rec.segment(0.0)
+    rec.append(np.arange(n) / fs, values)
+    path, = rec.close()
+    assert path.read_text().splitlines()[2] == "time_s,angle_deg,channel_1_Nm"
+    protocol = protocol_from_dict({"columns": {"torque": {"header": "channel_1"}}})
+    trial = read_trial(path, protocol)
+    np.testing.assert_allclose(trial.angle, np.deg2rad(values[:, 0]), rtol=1e-15)
+    np.testing.assert_array_equal(trial.torque, values[:, 1])
+
+
+def test_the_status_line_says_the_stream_ended():
+    session = LiveSession(100.0, Immediately())
+    assert status_line(session, stalled_s=3.2).endswith("| STALLED 3 s")
+    assert status_line(session, stalled_s=3.2, ended=True).endswith("| stream ended 3 s ago")
 
 
 def test_the_analysis_bridges_what_the_session_bridged(tmp_path):

@@ -11,6 +11,7 @@ import importlib.util
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,7 +21,7 @@ from .support.lsl_loopback import Publisher, restarted, unique_name, use_loopbac
 use_loopback()          # before the first pylsl call of this process
 
 from limbstiff.errors import StreamError  # noqa: E402
-from limbstiff.files import lsl, lsl_outlet  # noqa: E402
+from limbstiff.files import lsl, lsl_config, lsl_outlet  # noqa: E402
 
 needs_pylsl = pytest.mark.skipif(importlib.util.find_spec("pylsl") is None, reason="pylsl not installed")
 
@@ -282,3 +283,55 @@ def test_stop_event_ends_publish_early():
     # 10 s of samples pushed in real time; stopped after 0.3 s. The bound is generous (a stop seen up
     # to 7 s late on a loaded machine passes) but a stop that is ignored sends all 10 000.
     assert 0 < sent < 7_500
+
+
+def test_liblsl_config_adds_a_quiet_log_level_to_the_users_own(tmp_path, monkeypatch):
+    """The user's configuration is kept whole, with ``[log] level = -3`` added unless it sets a
+    level; LSLAPICFG is the file read (else liblsl's own places: lsl_api.cfg here first)."""
+    mine = tmp_path / "mine.cfg"
+    mine.write_text("[lab]\nSessionID = my-lab ; ours\n\n[log]\nfile = lsl.log\n")
+    text = lsl_config.liblsl_config(mine)
+    assert text.startswith("[lab]\nSessionID = my-lab ; ours\n\n[log]\nfile = lsl.log\n")
+    assert text.rstrip().endswith("[log]\nlevel = -3") and lsl_config.LOG_LEVEL == -3
+    chosen = tmp_path / "chosen.cfg"
+    chosen.write_text("[Log]\n level = 0  ; liblsl's INFO lines, please\n")
+    assert lsl_config.liblsl_config(chosen) == chosen.read_text()          # the user's level stands
+    commented = tmp_path / "commented.cfg"
+    commented.write_text("[log]\n; level = 0\n")
+    assert "level = -3" in lsl_config.liblsl_config(commented)
+    monkeypatch.setenv("LSLAPICFG", str(mine))
+    assert lsl_config.user_config() == mine and lsl_config.liblsl_config() == text
+    monkeypatch.delenv("LSLAPICFG")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    (tmp_path / "lsl_api.cfg").write_text("[ports]\nIPv6 = disable\n")
+    assert lsl_config.user_config() == tmp_path / "lsl_api.cfg"
+    assert lsl_config.liblsl_config().startswith("[ports]\nIPv6 = disable\n\n")
+    (tmp_path / "lsl_api.cfg").unlink()
+    if not Path("/etc/lsl_api/lsl_api.cfg").exists():
+        assert lsl_config.user_config() is None
+        assert lsl_config.liblsl_config().endswith("[log]\nlevel = -3\n")
+
+
+@needs_pylsl
+def test_sender_present_tells_an_ended_stream_from_a_stalled_one():
+    """While no sample comes the reader asks the network whether the sender is still there: yes
+    while its outlet is open (a stall), no once it has closed it (the stream ended)."""
+    name = unique_name()
+    pub = Publisher(np.ones((100, 1)), fs=100.0, labels=("x",), units=(None,), name=name, source_id=name,
+                    wait_consumer_s=5.0, linger_s=4.0)
+    pub.start()
+    with lsl.StreamReader(lsl.find_stream(name=name, timeout=5.0)) as reader:
+        assert len(_read(reader, n=100, done=lambda: False, timeout=5.0)[0]) == 100
+        answers = []                               # the outlet stays open 4 s after its last sample
+        deadline = time.monotonic() + 3.0
+        while time.monotonic() < deadline and not answers:
+            assert reader.pull(timeout=0.05).n == 0
+            answer = reader.sender_present()
+            answers += [answer] if answer is not None else []
+        assert answers == [True]
+        deadline = time.monotonic() + 12.0         # closed: gone once the resolver forgets it
+        while time.monotonic() < deadline and reader.sender_present() is not False:
+            reader.pull(timeout=0.05)
+        assert reader.sender_present() is False
+    pub.join(5)

@@ -10,8 +10,13 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
+import re
+import subprocess
+import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -79,7 +84,7 @@ def test_the_command_ends_with_the_recording_and_the_offline_analysis(session):
     result, sent, out, _ = session
     assert result.exit_code == 0, result.output
     assert "duration 29 s reached" in result.output
-    table = np.loadtxt(out / "session1.csv", delimiter=",", comments="#", skiprows=8)
+    table = np.loadtxt(out / "session1.csv", delimiter=",", comments="#", skiprows=7)
     n = len(table)
     assert 29000 <= n <= len(sent)
     # the recording is what was sent: the values to the bit, the times on the stream's 1 ms grid
@@ -166,11 +171,59 @@ def test_a_restarted_sender_and_a_stall_end_with_both_parts_recorded_and_analyse
     info = json.loads((tmp_path / "s" / "stream.json").read_text())
     assert info["recordings"] == ["s.csv", "s-2.csv"] and len(info["breaks"]) == 1
     # liblsl loses the first ~1.2 s of the new sender's samples while it reconnects (files.lsl)
-    first = np.loadtxt(tmp_path / "s.csv", delimiter=",", comments="#", skiprows=8)
-    second = np.loadtxt(tmp_path / "s-2.csv", delimiter=",", comments="#", skiprows=8)
+    first = np.loadtxt(tmp_path / "s.csv", delimiter=",", comments="#", skiprows=7)
+    second = np.loadtxt(tmp_path / "s-2.csv", delimiter=",", comments="#", skiprows=7)
     np.testing.assert_array_equal(first[:, 1:], sent[:len(first)])
     tail = sent[7000:]
     start = int(np.flatnonzero((tail == second[0, 1:]).all(axis=1))[0])
     np.testing.assert_array_equal(second[:, 1:], tail[start:start + len(second)])
     assert len(first) == 7000 and info["dropped_samples"] >= start
     assert (tmp_path / "s" / "summary.json").exists() and (tmp_path / "s-2" / "summary.json").exists()
+
+
+def test_a_normal_end_of_stream_is_quiet_and_not_an_error(tmp_path):
+    """`limbstiff simulate --stream` and `limbstiff stream` as a user runs them, in two processes,
+    liblsl configured by a file that sets no log level (the tests' loopback without its [log]):
+    neither prints a line of liblsl's on stderr (no INFO, no `ERR| Stream transmission broke off`
+    when the simulator closes its outlet); the session says the stream ended and exits 0; the
+    recording has unit-bearing headers and no unit row, and reads the same in pandas and limbstiff."""
+    import pandas as pd
+
+    from limbstiff.files import read_trial
+
+    from .support.lsl_loopback import CONFIG
+
+    config = tmp_path / "lsl_api.cfg"
+    text = CONFIG.read_text()
+    config.write_text(text[:text.index("[log]")])
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "LSLAPICFG": str(config),
+           "PYTHONPATH": os.pathsep.join([str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    name, out = unique_name("quiet"), tmp_path / "out"
+    limbstiff = [sys.executable, "-m", "limbstiff"]
+    sender = subprocess.Popen([*limbstiff, "simulate", "elbow", "--seed", "2", "--set", "duration=4", "--stream",
+                               "--stream-name", name, "--wait-consumer", "60"],
+                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        session = subprocess.run([*limbstiff, "stream", "--name", name, "--out", str(out), "--trial", "t",
+                                  "--resolve-timeout", "30", "--timeout", "4", "--warmup", "2", "--no-outlet",
+                                  "--no-pdf"], env=env, capture_output=True, text=True, timeout=240)
+    finally:
+        sent_err = sender.communicate(timeout=60)[1]
+    liblsl = re.compile(r"(INFO|ERR|WARN)\||liblsl|loguru|Stream transmission")
+    for stderr in (session.stderr, sent_err):
+        lines = [line for line in re.split(r"[\r\n]", stderr) if line.strip()]
+        assert not [line for line in lines if liblsl.search(line)], stderr[-2000:]
+    assert session.returncode == 0, session.stderr[-2000:]
+    assert "stream: the stream ended (its sender closed it; no sample for 4 s)" in session.stderr
+    assert sender.returncode == 0
+    lines = (out / "t.csv").read_text().splitlines()
+    header = lines.index("time_s,angle_rad,torque_Nm,stiffness_true_Nm_per_rad")
+    assert lines[header + 1].startswith("0.0,")                       # no unit row
+    table = pd.read_csv(out / "t.csv", comment="#")
+    assert len(table) == 4001 and all(dtype == np.float64 for dtype in table.dtypes)
+    trial = read_trial(out / "t.csv")
+    np.testing.assert_array_equal(trial.angle, table["angle_rad"].to_numpy())
+    np.testing.assert_array_equal(trial.torque, table["torque_Nm"].to_numpy())
+    info = json.loads((out / "t" / "stream.json").read_text())
+    assert info["stopped"].startswith("the stream ended") and (out / "t" / "summary.json").exists()

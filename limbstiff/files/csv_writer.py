@@ -8,9 +8,9 @@ as the csv module quotes them, lines end with ``\n``. Numbers are formatted by c
 * float with ``digits=10``: ``"%.10g"`` (``stiffness.csv``, the curves, ``draws.csv``), byte for
   byte as pandas' ``to_csv(float_format="%.10g")`` and formatted by numpy in blocks of rows, at a
   tenth of pandas' cost or less;
-* float with ``digits=17`` (``"%.17g"``, the live recording) or ``digits=None`` (the shortest text
-  that reads back as the same float64, Python's ``repr``: the standard trial CSV): by Python, value
-  by value; both read back to the bit;
+* float with ``digits=17`` (``"%.17g"``) or ``digits=None`` (the shortest text that reads back as
+  the same float64, Python's ``repr``: the standard trial CSV, the live recording): by Python,
+  value by value; both read back to the bit;
 * integer in decimal, bool as ``True``/``False``; any other column (object: text, None, numbers
   mixed, ``summary.csv``) cell by cell as the csv module writes it (None empty, a float shortest).
 

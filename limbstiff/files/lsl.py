@@ -20,6 +20,10 @@ What liblsl does underneath:
   and reconnects by itself. Measured (loopback, new outlet 0.5 s after the old one closed): the
   new outlet's samples arrive from 1.24 s after its start (the earlier ones are lost), 2.8 s after
   its start, and one pull blocks ~1.6 s inside liblsl while it reconnects.
+* **Its log**: liblsl writes INFO lines, and an ``ERR`` line whenever a sender closes its outlet
+  (``Stream transmission broke off … re-connecting``: a normal end of a stream), on stderr, over the
+  terminal's status line: limbstiff's first LSL call hands liblsl the user's configuration with
+  ``[log] level = -3`` added unless it sets a level (:mod:`.lsl_config`).
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import StreamError
+from .lsl_config import hand_over
 
 INSTALL_HINT = "pylsl is not installed: pip install 'limbstiff[stream]'"
 _NOT_FOUND = ("no LSL stream found within {timeout:g} s; check that the acquisition software is "
@@ -40,10 +45,16 @@ _NOT_FOUND = ("no LSL stream found within {timeout:g} s; check that the acquisit
 #: liblsl's channel formats (lsl_channel_format_t) by number
 _FORMATS = {1: "float32", 2: "double64", 3: "string", 4: "int32", 5: "int16", 6: "int8", 7: "int64"}
 _XML_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*\Z")
+#: How long :meth:`StreamReader.sender_present` listens before it answers, s (a resolver's first
+#: replies come within a few of its 0.5 s query waves on a network, within 0.1 s on one machine).
+WATCH_S = 1.5
+_configured = False
 
 
 def _pylsl(source: str):
-    """pylsl, imported; StreamError(source, install hint) when it is missing or cannot load liblsl."""
+    """pylsl, imported; StreamError(source, install hint) when it is missing or cannot load liblsl.
+    The first time, liblsl is handed its configuration (:mod:`.lsl_config`) before any LSL call."""
+    global _configured
     try:
         import pylsl
     except ImportError:
@@ -52,6 +63,9 @@ def _pylsl(source: str):
         problem = " ".join(str(exc).split())
         raise StreamError(source, f"pylsl cannot load liblsl ({problem}); reinstall pylsl or set "
                                   f"PYLSL_LIB to liblsl's path") from None
+    if not _configured:
+        _configured = True
+        hand_over(pylsl)
     return pylsl
 
 
@@ -279,6 +293,7 @@ class StreamReader:
             raise StreamError(self._label, "the description was not resolved on the network; get it "
                                            "from find_stream")
         flags = pylsl.proc_clocksync | (pylsl.proc_dejitter if dejitter else 0)
+        self._watch = None          # (resolver, since when) while no sample comes: sender_present
         self._buffer = np.empty((0, max(1, description.n_channels)), dtype=_dtype(description))
         self._offset, self._offset_at = float("nan"), -np.inf
         self.last_data_at = float("nan")
@@ -332,6 +347,7 @@ class StreamReader:
         n = stamps.size
         if n:
             self.last_data_at = pulled_at
+            self._watch = None
         if pulled_at - self._offset_at > 5.0:
             self._refresh_offset(timeout=0.0)
         return StreamChunk(timestamps=np.array(stamps, dtype=np.float64),
@@ -348,6 +364,26 @@ class StreamReader:
             time.sleep(0.001)
         _, stamps = pull(timeout=0.0, max_samples=max_samples, dest_obj=buffer)
         return np.asarray(stamps, dtype=np.float64)
+
+    def sender_present(self) -> bool | None:
+        """Whether an outlet of this stream (its name, type and ``source_id``) is on the network now:
+        asked while no sample comes, to tell a stream that ended (its sender closed the outlet) from
+        one that stalled. None until :data:`WATCH_S` s after the first call since the last sample (a
+        resolver's first replies); then what the resolver has seen within the last 2 s."""
+        if self._inlet is None:
+            return None
+        if self._watch is None:
+            d = self.description
+            predicate = _predicate(self._label, name=d.name, type=d.type, source_id=d.source_id or None)
+            try:
+                resolver = self._pylsl.ContinuousResolver(pred=predicate, forget_after=2.0)
+            except Exception:       # not known: the caller says "stalled or ended"
+                return None
+            self._watch = (resolver, time.monotonic())
+        resolver, since = self._watch
+        if time.monotonic() - since < WATCH_S:
+            return None
+        return bool(resolver.results())
 
     def _refresh_offset(self, timeout: float) -> None:
         try:
@@ -367,7 +403,7 @@ class StreamReader:
 
     def close(self) -> None:
         """Close the inlet (idempotent)."""
-        inlet, self._inlet = self._inlet, None
+        inlet, self._inlet, self._watch = self._inlet, None, None
         if inlet is not None:
             try:
                 inlet.close_stream()

@@ -6,8 +6,10 @@ A live session must never lose its recording: :class:`GrowingTable` appends each
 ``<name>.partial`` in the destination folder and flushes it to disk at least every
 :data:`FLUSH_EVERY_S` seconds, so a crash leaves at most that much unwritten; :meth:`GrowingTable.close`
 renames it to its name (a partial file left behind by a killed process is a readable CSV too).
-Values are written with 17 significant digits, which read back as the same float64 to the bit, by
-the one CSV writer (:mod:`.csv_writer`).
+Values are written as the shortest text that reads back as the same float64 (Python's ``repr``), by
+the one CSV writer (:mod:`.csv_writer`). The recording's headers carry their units
+(:func:`unit_headers`: ``angle`` of unit ``deg`` is ``angle_deg``), so that it is a standard trial
+file without a unit row, read as it was received.
 """
 
 from __future__ import annotations
@@ -19,12 +21,11 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..units import UNITS, parse_standard_header, same_unit, split_header
 from .csv_writer import csv_head, csv_rows
 
 #: Longest time rows wait in memory before they are flushed to disk, s.
 FLUSH_EVERY_S = 1.0
-#: Significant digits of the values: 17 read back as the same float64.
-EXACT_DIGITS = 17
 
 
 class GrowingTable:
@@ -71,7 +72,7 @@ class GrowingTable:
         """Write what is buffered to disk."""
         if self._pending:
             rows = np.vstack(self._pending)
-            self._handle.write(csv_rows(list(rows.T), digits=EXACT_DIGITS, na_rep="nan"))
+            self._handle.write(csv_rows(list(rows.T), digits=None, na_rep="nan"))
             self._pending = []
         self._handle.flush()
         os.fsync(self._handle.fileno())
@@ -84,6 +85,48 @@ class GrowingTable:
             self._handle.close()
             os.replace(self.partial, self.path)
         return self.path
+
+
+def unit_headers(headers: Sequence[str], units: Sequence[str | None]) -> tuple[list[str], list[str] | None]:
+    """Headers that carry their units, and the unit row still needed (None: none is).
+
+    A header without a unit gets ``_<unit>`` (``angle`` and ``deg`` → ``angle_deg``; ``channel_2``
+    and ``deg`` → ``channel_2_deg``, which a protocol still finds as ``channel_2``); one that names
+    its unit already, or has none to carry, stays. A unit that cannot be read back from its header
+    (not in the unit table, on a header that is no standard quantity), one that differs from the
+    unit in its header, or headers made equal by their units keep the headers as given and the
+    unit row, which the reader reads as before.
+
+    Parameters
+    ----------
+    headers : sequence of str, length c
+    units : sequence of (str or None), length c
+
+    Returns
+    -------
+    headers : list of str, length c
+    units : list of str, length c, or None
+    """
+    out = []
+    for header, unit in zip(headers, units):
+        unit = (unit or "").strip()
+        written = _unit_written(header)
+        if not unit or (written is not None and same_unit(written, unit)):
+            out.append(header)
+        elif written is None and _unit_written(f"{header}_{unit}") == unit:
+            out.append(f"{header}_{unit}")
+        else:
+            return list(headers), [u or "" for u in units]
+    if len(set(out)) < len(out):
+        return list(headers), [u or "" for u in units]
+    return out, None
+
+
+def _unit_written(header: str) -> str | None:
+    """The unit a header names: a known one at its end, or any after a standard quantity."""
+    known = split_header(header)[1]
+    standard = parse_standard_header(header)
+    return known if known in UNITS else standard[1] if standard else None
 
 
 class SegmentedRecording:
@@ -102,14 +145,15 @@ class SegmentedRecording:
         Folder of the recording files.
     trial : str
     headers, units : sequence of str
-        The channels' headers and units.
+        The channels' headers and units (written in the headers where they can be: :func:`unit_headers`).
     metadata : mapping of str to str
     fs : float, Hz
         The stream's nominal rate.
     """
 
     def __init__(self, out: Path, trial: str, headers, units, metadata, fs: float):
-        self.out, self.trial, self.headers, self.units, self.metadata = Path(out), trial, headers, units, metadata
+        self.out, self.trial, self.metadata = Path(out), trial, metadata
+        self.headers, self.units = unit_headers(["time_s", *headers], ["s", *units])
         self.fs = float(fs)
         self.tables: list[GrowingTable] = []
         self.zero = 0.0
@@ -126,8 +170,7 @@ class SegmentedRecording:
                 k += 1
                 name = f"{self.trial}-{k}"
         meta = {**self.metadata, "lsl_time_at_zero_s": repr(float(t0))}
-        self.tables.append(GrowingTable(self.out / f"{name}.csv", ["time_s", *self.headers],
-                                        units=["s", *self.units], metadata=meta))
+        self.tables.append(GrowingTable(self.out / f"{name}.csv", self.headers, units=self.units, metadata=meta))
         if len(self.tables) == 1:
             self.zero = float(t0)
         self._last_stamp, self._last_index = float(t0), -1

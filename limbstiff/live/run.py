@@ -55,7 +55,8 @@ class StreamSettings:
     duration_s : float or None, s
         Stop after this much record (None: at Ctrl-C or when the stream ends).
     timeout_s : float, s
-        No sample for this long ends the session (a stalled or ended stream).
+        No sample for this long ends the session (a stalled or ended stream; a sender restarted
+        within it is read on).
     warmup_s : float, s
         Record before the first identification.
     resolve_s : float, s
@@ -212,12 +213,13 @@ def _loop(settings, reader, session, recording, live, outlet, columns, progress)
             chunk = reader.pull(timeout=0.05)
             now = time.monotonic()
             if chunk.n == 0:
+                sender = reader.sender_present() if now - last_sample > 1.0 else None
                 if now - last_sample > settings.timeout_s:
-                    return f"no sample for {settings.timeout_s:g} s (stream stalled or ended)", latency
+                    return _silence(settings.timeout_s, sender), latency
                 if now - last_sample > 1.0:
                     recording.flush()          # a stalled stream's last rows go to disk now
                     if progress and now - shown > 0.5:
-                        progress(status_line(session, stalled_s=now - last_sample))
+                        progress(status_line(session, stalled_s=now - last_sample, ended=sender is False))
                         shown = now
                 continue
             last_sample = now
@@ -236,6 +238,16 @@ def _loop(settings, reader, session, recording, live, outlet, columns, progress)
     except Exception as exc:    # the recording must be kept whatever went wrong; the error is said
         return (f"stopped by an internal error ({type(exc).__name__}: {exc}); the recording up to it is kept",
                 latency)
+
+
+def _silence(timeout_s: float, sender: bool | None) -> str:
+    """Why a session without samples for ``timeout_s`` stopped: its sender closed the stream (a
+    normal end), or is there but sends nothing, or (not known yet) either."""
+    if sender is False:
+        return f"the stream ended (its sender closed it; no sample for {timeout_s:g} s)"
+    if sender:
+        return f"no sample for {timeout_s:g} s (the stream stalled: its sender is there but sends nothing)"
+    return f"no sample for {timeout_s:g} s (stream stalled or ended)"
 
 
 def _one_chunk(chunk, session, recording, live, outlet, columns, latency):

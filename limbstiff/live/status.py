@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 
-
-def status_line(session, *, stalled_s: float | None = None) -> str:
+def status_line(session, *, stalled_s: float | None = None, ended: bool = False) -> str:
     """One line: record length, the last stiffness and band, the live checks, m and b, the stream's state.
 
     Parameters
@@ -14,6 +13,8 @@ def status_line(session, *, stalled_s: float | None = None) -> str:
     session : LiveSession
     stalled_s : float, optional, s
         Time since the last sample, when the stream has stalled.
+    ended : bool
+        Its sender has closed the stream (said instead of ``STALLED``).
 
     Returns
     -------
@@ -46,5 +47,5 @@ def status_line(session, *, stalled_s: float | None = None) -> str:
     if ev.identifications and "error" in ev.identifications[-1]:      # until one succeeds
         parts.append(f"identification failed: {ev.identifications[-1]['error']}")
     if stalled_s is not None:
-        parts.append(f"STALLED {stalled_s:.0f} s")
+        parts.append(f"stream ended {stalled_s:.0f} s ago" if ended else f"STALLED {stalled_s:.0f} s")
     return " | ".join(parts)
