@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Iterable, Sequence
 import numpy as np
 
 from ..errors import TrialError
+from ..protocol import ENSEMBLE_MARKER  # noqa: F401 - the marker of the trials this module joins (batch reads it here)
 from ..trial import Trial
 
 if TYPE_CHECKING:
@@ -33,11 +34,6 @@ if TYPE_CHECKING:
 MIN_FILES = 5
 #: Time at each end of every file marked ``bridged``, s: the filters' smear of a join's step.
 JOIN_S = 0.02
-#: The marker's name in messages (``Cycles(marker=ENSEMBLE_MARKER)``): the files, not a column.
-ENSEMBLE_MARKER = "<files>"
-#: How an ensemble's cycles were cut, in words (the curve's caption and ``how`` in summary.json),
-#: formatted with the number of files.
-ENSEMBLE_HOW = "one cycle per file, {} files"
 #: Relative difference of sample rates the files may have.
 RATE_TOLERANCE = 1e-6
 #: The arrays concatenated file by file (None in every file, or in none).

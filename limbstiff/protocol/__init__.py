@@ -13,9 +13,10 @@ The dataclasses and their checks are :mod:`limbstiff.protocol.settings`; reading
 
 from ..errors import ProtocolError
 from .reading import load_protocol, protocol_from_dict
-from .settings import (DECIMALS, DELIMITERS, DERIVATIVES, DISCRETISATIONS, ESTIMATORS, MODEL_EFFECTS,
-                       PRIOR_DISTRIBUTIONS, QUANTITIES, VARIANTS, Column, Cycles, Prior, Protocol)
+from .settings import (DECIMALS, DELIMITERS, DERIVATIVES, DISCRETISATIONS, ENSEMBLE_HOW, ENSEMBLE_MARKER, ESTIMATORS,
+                       MODEL_EFFECTS, PRIOR_DISTRIBUTIONS, QUANTITIES, VARIANTS, Column, Cycles, Prior, Protocol)
 
-__all__ = ["DECIMALS", "DELIMITERS", "DERIVATIVES", "DISCRETISATIONS", "ESTIMATORS", "MODEL_EFFECTS",
+__all__ = ["DECIMALS", "DELIMITERS", "DERIVATIVES", "DISCRETISATIONS", "ENSEMBLE_HOW", "ENSEMBLE_MARKER", "ESTIMATORS",
+           "MODEL_EFFECTS",
            "PRIOR_DISTRIBUTIONS", "QUANTITIES", "VARIANTS", "Column", "Cycles", "Prior", "Protocol",
            "ProtocolError", "load_protocol", "protocol_from_dict"]

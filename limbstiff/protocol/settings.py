@@ -51,6 +51,14 @@ class Column:
     component: str | None = None
 
 
+#: The marker's name in messages when each file is one cycle (``Cycles(marker=ENSEMBLE_MARKER)``,
+#: ``analyze --ensemble``): the files, not a column.
+ENSEMBLE_MARKER = "<files>"
+#: How an ensemble's cycles were cut, in words (the curve's caption and ``how`` in summary.json),
+#: formatted with the number of files.
+ENSEMBLE_HOW = "one cycle per file, {} files"
+
+
 @dataclass(frozen=True)
 class Cycles:
     """How a trial is cut into movement cycles (the ``[cycles]`` section).

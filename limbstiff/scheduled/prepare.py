@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import cycles
 from ..errors import TrialError
-from ..files.ensemble import ENSEMBLE_HOW, ENSEMBLE_MARKER
+from ..protocol import ENSEMBLE_HOW, ENSEMBLE_MARKER
 from ..trial import Trial
 
 #: Held-out units of a schedule analysis: stretches of this many seconds (or 40 per record at
