@@ -233,6 +233,20 @@ def test_an_ods_workbook_is_told_how_to_save_it(tmp_path):
                               "save it as .xlsx or .csv (LibreOffice: File > Save As)")
 
 
+def test_a_workbook_found_in_a_trials_folder_is_said_and_skipped(trial_file, tmp_path):
+    """An .ods (or .xls) kept in a folder of trials is not passed over in silence: the batch says it
+    is not read and how to save it, skips it, and the trial beside it is analysed (exit 0)."""
+    folder = tmp_path / "trials"
+    folder.mkdir()
+    trial_file("t0", folder=folder, duration=3.0)
+    (folder / "subjects.ods").write_bytes(b"PK\x03\x04")
+    res = CliRunner().invoke(main, ["analyze", str(folder), "--out", str(tmp_path / "out"), "--no-pdf"])
+    assert res.exit_code == 0, res.output
+    said = [ln for ln in res.output.splitlines() if "subjects.ods" in ln]
+    assert len(said) == 1 and "save it as .xlsx or .csv" in said[0] and "skipped" in said[0]
+    assert not (tmp_path / "out" / "subjects").exists()
+
+
 @pytest.mark.slow
 def test_a_subjects_list_beside_the_trials_is_skipped_with_one_line(trial_file, tmp_path):
     folder = tmp_path / "trials"

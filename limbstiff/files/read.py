@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
-from ..errors import TrialError
+from ..errors import NotATrial, TrialError
 from ..frozen import FrozenDict
 from ..trial import Trial
 from .dialect import ANY_CONTROL, shown
@@ -84,8 +84,9 @@ EXTENSIONS = FrozenDict({".csv": FileType(_read_text), ".tsv": FileType(_read_te
 REFUSED = FrozenDict({".xls": "an old binary Excel workbook (.xls) is not read: save it as .xlsx or .csv",
                       ".ods": "an OpenDocument spreadsheet (.ods) is not read: save it as .xlsx or .csv "
                               "(LibreOffice: File > Save As)"})
-#: The extensions a batch searches folders for.
-FOLDER_EXTENSIONS = tuple(ext for ext, file_type in EXTENSIONS.items() if file_type.in_folders)
+#: The extensions a batch searches folders for: the types it reads, and the refused ones, so that a
+#: workbook kept in a trials folder is said (and skipped), not silently passed over.
+FOLDER_EXTENSIONS = tuple(ext for ext, file_type in EXTENSIONS.items() if file_type.in_folders) + tuple(REFUSED)
 
 
 def read_trial(path, protocol: Protocol | None = None, *, name: str | None = None) -> Trial:
@@ -122,8 +123,8 @@ def read_trial(path, protocol: Protocol | None = None, *, name: str | None = Non
     if path.is_dir():
         raise TrialError(str(path), "is a directory, not a trial file")
     file_type = EXTENSIONS.get(path.suffix.lower())
-    if path.suffix.lower() in REFUSED:
-        raise TrialError(str(path), REFUSED[path.suffix.lower()])
+    if path.suffix.lower() in REFUSED:           # not read: no trial here (skipped when found in a folder)
+        raise NotATrial(str(path), REFUSED[path.suffix.lower()])
     if file_type is None:
         accepted = ", ".join(EXTENSIONS)
         raise TrialError(str(path), f"unknown file type '{path.suffix or '(no extension)'}' "
