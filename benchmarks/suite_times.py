@@ -51,6 +51,9 @@ def run(name: str, loaded: bool) -> dict:
             stop.set()
             hog.join()
     last = [ln for ln in done.stdout.splitlines() if re.search(r"\d+ (passed|failed)", ln)]
+    failed = [ln for ln in done.stdout.splitlines() if ln.startswith("FAILED")]
+    if failed:
+        print("\n".join(failed), flush=True)
     return {"suite": name, "loaded": loaded, "wall_s": wall, "passed": done.returncode == 0,
             "counts": last[-1].strip("= ") if last else done.stdout[-200:]}
 
