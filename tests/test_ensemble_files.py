@@ -14,7 +14,8 @@ from limbstiff import cycles
 from limbstiff.cli import main
 from limbstiff.errors import TrialError
 from limbstiff.files import read_ensemble, read_trial
-from limbstiff.files.ensemble import ENSEMBLE_MARKER, MIN_FILES, natural_key
+from limbstiff.files.ensemble import MIN_FILES, natural_key
+from limbstiff.protocol import ENSEMBLE_MARKER
 
 ARGS = ["--no-pdf", "--inertia", "0.015", "--damping", "0.8"]
 

@@ -22,7 +22,7 @@ from .overwrite import clear_or_refuse, refuse_other_outputs, source_sha256
 from .runner import BatchJob, TrialOutcome, run_jobs, run_one
 from .table import FolderTable, TrialRow, mixed_kinds, up_to_date
 from ..errors import LimbstiffError
-from ..protocol import Protocol
+from ..protocol import ENSEMBLE_MARKER, Protocol
 
 if TYPE_CHECKING:
     from ..calibrate import SpringCalibration
@@ -322,7 +322,7 @@ def analyze_ensemble(paths: Sequence[str], *, protocol: Protocol | None = None, 
     TrialError
         Fewer than :data:`~limbstiff.files.ensemble.MIN_FILES` (the ensemble's least number of cycles) files.
     """
-    from ..files.ensemble import ENSEMBLE_MARKER, ensemble_folder, ensemble_order
+    from ..files.ensemble import ensemble_folder, ensemble_order
     from ..files.outputs import REPORT_PDF, STIFFNESS_CSV, SUMMARY_JSON
     from ..protocol import Cycles
 

@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING, Iterable, Sequence
 import numpy as np
 
 from ..errors import TrialError
-from ..protocol import ENSEMBLE_MARKER  # noqa: F401 - the marker of the trials this module joins (batch reads it here)
 from ..trial import Trial
 
 if TYPE_CHECKING:
