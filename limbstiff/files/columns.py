@@ -13,8 +13,7 @@ from typing import NamedTuple, Sequence
 from ..errors import NotATrial, TrialError
 from ..units import FIELDS, STANDARD_QUANTITIES, UNITS, canonical_unit, parse_standard_header, split_header, \
     unit_in_header
-# in_si is imported from here by live.run
-from .column_units import agree, check_field_unit, check_unit, in_si  # noqa: F401
+from .column_units import agree, check_field_unit, check_unit
 
 _LABELS = {"time": "time", "angle": "angle/position", "torque": "torque/force",
            "elastic_torque": "elastic torque/force", "stiffness_true": "reference stiffness",

@@ -26,7 +26,8 @@ import numpy as np
 from ..batch.jobs import analyze_files
 from ..errors import StreamError
 from ..files import lsl, lsl_outlet
-from ..files.columns import in_si, resolve_columns
+from ..files.column_units import in_si
+from ..files.columns import resolve_columns
 from ..files.outputs import jsonable, write_json
 from ..files.recording import GrowingTable, SegmentedRecording
 from ..protocol import Protocol
