@@ -16,6 +16,15 @@ per verdict: an effect the model lacks may make the band wrong, and the verdict 
 ``ok``. Besides the suites, 12 clean trials with a 4 s motion pause (:data:`PAUSE_SEEDS`): the
 band's coverage over the informed samples and within the pause. Writes the section
 ``calibration-independent`` of ``benchmarks/RESULTS.md``.
+
+Coverage among ``ok`` (issue 46): per group (clean, with an effect) and pooled, the share of trials
+said ``ok`` and, among them, the band's coverage of the truth over their informed samples pooled
+(with a 95 % Wilson interval, which counts the samples as independent: they are not, the band's
+errors are correlated over seconds, so also the per-trial median and the share of ``ok`` trials at
+≥ 85 %), how often the ``median_stiffness`` interval holds the true median (a Wilson interval over
+trials) and the median error. ``--label`` keeps these figures in ``calibration_independent.json``
+under a name (``before``: the code before issue 46's changes); the section shows every label kept.
+Run time, one process: about 25 minutes for the two suite seeds and the pause trials.
 """
 
 from __future__ import annotations
@@ -24,6 +33,7 @@ import argparse
 import json
 import sys
 import tempfile
+import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -32,6 +42,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE), str(HERE.parent)]  # benchmarks/, and the repository's root for tests.support
 from _results import machine, update_section  # noqa: E402
+from checks import wilson  # noqa: E402
 from tests.support import independent_trials  # noqa: E402
 
 
@@ -56,7 +67,7 @@ def _one(job) -> dict:
         row["pause"] = dict(coverage=float(np.mean((result.stiffness_lo[inside] <= true)
                                                    & (true <= result.stiffness_hi[inside]))),
                             informed=float(np.mean(result.observable[inside])))
-    row.update(verdict=result.verdict, median_error=err["median"], coverage=err["coverage"],
+    row.update(verdict=result.verdict, median_error=err["median"], coverage=err["coverage"], samples=err["n"],
                inertia=result.inertia.lo <= truth["inertia"] <= result.inertia.hi,
                damping=result.damping.lo <= truth["damping"] <= result.damping.hi,
                figures=trial_level_inside(result), z=_figure_z(result))
@@ -137,6 +148,74 @@ def _line(label: str, rows: list[dict]) -> str:
             f"| {_share([r['damping'] for r in done])} | {_share(figures)} |")
 
 
+#: Where ``--label`` keeps the coverage-among-ok figures of each run.
+OK_JSON = HERE / "calibration_independent.json"
+#: Per-trial coverage at or above this counts as the band holding the truth on the trial (issue 46's contract).
+CONTRACT = 0.85
+
+
+def ok_figures(rows: list[dict]) -> dict:
+    """Per group (clean, with an effect, all): trials analysed and said ok; among the ok trials the band's
+    coverage (samples pooled: inside / samples; per-trial median; trials at ≥ :data:`CONTRACT`), the
+    ``median_stiffness`` interval holding the true median (trials), and the median of the median errors."""
+    groups = {"clean": lambda r: r["family"] == "clean", "with an effect": lambda r: r["family"] != "clean",
+              "all": lambda r: True}
+    out = {}
+    for name, keep in groups.items():
+        done = [r for r in rows if keep(r) and "error" not in r and r["coverage"] is not None]
+        ok = [r for r in done if r["verdict"] == "ok"]
+        median_held = [bool(r["figures"][0]) for r in ok if r["figures"]]
+        out[name] = {"trials": len(done), "ok": len(ok),
+                     "inside": int(sum(round(r["coverage"] * r["samples"]) for r in ok)),
+                     "samples": int(sum(r["samples"] for r in ok)),
+                     "trial_median": float(np.median([r["coverage"] for r in ok])) if ok else None,
+                     "at_contract": int(sum(r["coverage"] >= CONTRACT for r in ok)),
+                     "median_held": int(sum(median_held)), "median_judged": len(median_held),
+                     "median_error": float(np.median([r["median_error"] for r in ok])) if ok else None}
+    return out
+
+
+def _pct_ci(k: int, n: int) -> str:
+    if not n:
+        return "—"
+    lo, hi = wilson(k, n)
+    return f"{100 * k / n:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}] ({k}/{n})"
+
+
+def ok_table(labelled: dict[str, dict]) -> list[str]:
+    """One line per label and group of :func:`ok_figures`."""
+    lines = ["| run | group | trials | said ok [95 % Wilson] | ok: band coverage, samples pooled [95 % Wilson] "
+             "| ok: per-trial coverage, median | ok trials with coverage ≥ 85 % | ok: median interval holds the "
+             "true median [95 % Wilson] | ok: median error (median) |", "|---|---|---|---|---|---|---|---|---|"]
+    for label, figures in labelled.items():
+        for group, f in figures.items():
+            cov = "—" if f["trial_median"] is None else f"{100 * f['trial_median']:.0f} %"
+            err = "—" if f["median_error"] is None else f"{100 * f['median_error']:.2f} %"
+            share = f"{100 * f['at_contract'] / f['ok']:.0f} % ({f['at_contract']}/{f['ok']})" if f["ok"] else "—"
+            lines.append(f"| {label} | {group} | {f['trials']} | {_pct_ci(f['ok'], f['trials'])} "
+                         f"| {_pct_ci(f['inside'], f['samples'])} | {cov} | {share} "
+                         f"| {_pct_ci(f['median_held'], f['median_judged'])} | {err} |")
+    return lines
+
+
+def ok_section(rows: list[dict], label: str | None, seeds, seconds: float, jobs: int) -> list[str]:
+    """The coverage-among-ok table: this run, and the runs kept in :data:`OK_JSON` under other labels."""
+    kept = json.loads(OK_JSON.read_text(encoding="utf-8")) if OK_JSON.exists() else {}
+    now = {"seeds": list(seeds), "figures": ok_figures(rows), "seconds": round(seconds)}
+    if label:
+        kept[label] = now
+        OK_JSON.write_text(json.dumps(kept, indent=1) + "\n", encoding="utf-8")
+    shown = {k: v["figures"] for k, v in kept.items() if v["seeds"] == list(seeds) and k != label}
+    shown[label or "this run"] = now["figures"]
+    return ["Coverage among the trials said ok (issue 46): band coverage over the informed samples after 2 s. "
+            "The pooled Wilson interval counts samples as independent, which they are not (the band's errors "
+            "are correlated over seconds): read it with the per-trial median and the share of ok trials whose "
+            f"band holds the truth on ≥ {100 * CONTRACT:.0f} % of their samples. Runs kept in "
+            f"`benchmarks/{OK_JSON.name}` for the same seeds are shown under their label; this run "
+            f"({label or 'no label'}) took {seconds / 60:.0f} min with `--jobs {jobs}` (suites and pause trials).",
+            "", *ok_table(shown)]
+
+
 def figure_table(clean: list[dict]) -> list[str]:
     """Per trial-level figure on the clean trials: how often its interval holds the truth, and the
     spread of its error in units of the interval's standard deviation (1 when calibrated)."""
@@ -167,8 +246,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[7100, 7200])
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--label", help="keep this run's coverage-among-ok figures under this name "
+                                        f"in benchmarks/{OK_JSON.name} (e.g. before, after)")
     args = parser.parse_args()
+    start = time.perf_counter()
     rows, pauses = run(args.seeds, args.jobs)
+    seconds = time.perf_counter() - start
     failed = [f"{r['trial']}: {r['error']}" for r in rows if "error" in r]
     ok_wrong = [f"{r['trial']} ({100 * r['coverage']:.0f} %)" for r in rows
                 if "error" not in r and r["family"] != "clean" and r["verdict"] == "ok"
@@ -181,7 +264,8 @@ def main() -> None:
             "intervals holding the truth 85–95 % of the time. Trials with an effect the model lacks: a band "
             "below 75 % should not come with the verdict ok.", "",
             "With an effect, verdict ok and the band below 75 %: " + (", ".join(ok_wrong) or "none") + ".",
-            "", "Trials that could not be analysed: " + ("; ".join(failed) or "none") + "."]
+            "", "Trials that could not be analysed: " + ("; ".join(failed) or "none") + ".",
+            "", *ok_section(rows, args.label, args.seeds, seconds, args.jobs)]
     text += ["", "Clean trials, one by one:", "", "| trial (seed) | course | verdict | median error | band coverage "
              "| m holds | b holds | trial-level intervals hold | figures' error ÷ interval sd (median, at mean torque, "
              "slope) |", "|---|---|---|---|---|---|---|---|---|"]

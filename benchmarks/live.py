@@ -2,7 +2,8 @@
 
 The estimate against the smoother, its latency in-process, and a whole session over the LSL loopback.
 
-    python benchmarks/live.py [--quick] [--only PART[,PART...]] [--seeds 2]
+    python benchmarks/live.py [--quick] [--only PART[,PART...]] [--seeds 2] [--generators own,independent]
+                              [--label NAME]
 
 Parts (``--only`` runs some of them, prints their tables and leaves RESULTS.md alone; so does ``--quick``):
 
@@ -14,7 +15,12 @@ Parts (``--only`` runs some of them, prints their tables and leaves RESULTS.md a
     where the live estimate exists: relative errors against the truth, the live band's coverage
     (all samples, and those whose verdict is ok), the share of each verdict code, and the lag —
     the shift of the live course that best matches the smoother's — against the chain's
-    ``LiveModel.delay_samples`` (low-pass group delay + the stencil's four samples).
+    ``LiveModel.delay_samples`` (low-pass group delay + the stencil's four samples). Coverage
+    among ``ok`` (issue 46), per trial and pooled per simulator: the share of samples said ``ok``,
+    the band's coverage on them with a 95 % Wilson interval (counting samples as independent,
+    which they are not: hence also per trial), and their median error. ``--generators`` runs one
+    simulator's trials only; ``--label`` keeps these figures in ``live_ok.json`` under a name
+    (``before``: the code before issue 46's changes), and the section shows every label kept.
 ``latency``
     ``LiveSession.feed`` per sample in steady state, chunks of 1, 10 and 32 samples at 1 kHz on
     ``elbow``: wall time (``time.perf_counter``) and thread CPU time (``time.thread_time``).
@@ -50,6 +56,7 @@ ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(ROOT))
 from _results import machine, update_section  # noqa: E402
+from checks import wilson  # noqa: E402
 from accuracy import SCENARIOS  # noqa: E402
 
 from limbstiff import analyze  # noqa: E402
@@ -60,6 +67,9 @@ from limbstiff.trial import Trial  # noqa: E402
 from tests.support import independent_trials  # noqa: E402
 
 PARTS = ("accuracy", "latency", "e2e")
+GENERATORS = ("own", "independent")
+#: Where ``--label`` keeps the coverage-among-ok figures of each run.
+OK_JSON = HERE / "live_ok.json"
 SKIP_S = WARMUP_S              # statistics over the samples after the first identification is due
 CHUNK = 10                     # samples per chunk in the replays of part 1
 MAX_LAG_S, LAG_STEP_S = 3.0, 0.01
@@ -163,24 +173,72 @@ ACCURACY_HEADER = [
     "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
 
-def accuracy_part(quick: bool, seeds: int) -> dict:
-    """Part 1: rows per accuracy scenario (seeds pooled) and per independent trial."""
-    rows, own, alone = [], [], []
-    for name, (scenario, params, _) in SCENARIOS.items():
+def accuracy_part(quick: bool, seeds: int, generators=GENERATORS) -> dict:
+    """Part 1: rows per accuracy scenario (seeds pooled) and per independent trial, and the
+    coverage-among-ok figures (:func:`ok_figures`) per row."""
+    rows, own, alone, ok = [], [], [], {}
+    for name, (scenario, params, _) in SCENARIOS.items() if "own" in generators else ():
         params = dict(params, **({"duration": 15.0} if quick else {}))
         runs = [compare(simulate(scenario, seed=100 + s, params=params)) for s in range(seeds)]
         own += runs
         rows.append(pooled_row(name, "own", runs))
+        ok[name] = ok_figures(runs)
         print(rows[-1], flush=True)
-    for trial in independent(quick):
+    for trial in independent(quick) if "independent" in generators else ():
         run = compare(trial)
         alone.append(run)
         rows.append(pooled_row(trial.name, "independent", [run]))
+        ok[trial.name] = ok_figures([run])
         print(rows[-1], flush=True)
-    rows += [pooled_row("**all, own simulator**", "own", own),
-             pooled_row("**all, independent simulator**", "independent", alone)]
+    for label, source, runs in (("**all, own simulator**", "own", own),
+                                ("**all, independent simulator**", "independent", alone)):
+        if runs:
+            rows.append(pooled_row(label, source, runs))
+            ok[label] = ok_figures(runs)
     refits = [r["refits"] for r in own + alone]
-    return {"rows": rows, "seeds": seeds, "refits": (min(refits), max(refits))}
+    return {"rows": rows, "seeds": seeds, "refits": (min(refits), max(refits)), "ok": ok}
+
+
+def ok_figures(runs: list[dict]) -> dict:
+    """The runs' samples pooled: how many, how many said ok, how many of those the band holds the
+    truth on, and their median error (None without ok samples)."""
+    code, inside, live = (np.concatenate([r[k] for r in runs]) for k in ("code", "inside", "live"))
+    ok = code == 0
+    return {"samples": int(len(code)), "ok": int(ok.sum()), "inside": int(inside[ok].sum()),
+            "median_error": float(np.median(live[ok])) if ok.any() else None}
+
+
+def _pct_ci(k: int, n: int) -> str:
+    if not n:
+        return "–"
+    lo, hi = wilson(k, n)
+    return f"{100 * k / n:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+
+def ok_lines(res: dict, label: str | None) -> list[str]:
+    """The coverage-among-ok table: this run's figures per trial and those kept in :data:`OK_JSON`
+    under other labels (same trials, same seeds)."""
+    kept = json.loads(OK_JSON.read_text(encoding="utf-8")) if OK_JSON.exists() else {}
+    if label:
+        kept[label] = {"seeds": res["seeds"], "ok": res["ok"]}
+        OK_JSON.write_text(json.dumps(kept, indent=1) + "\n", encoding="utf-8")
+    shown = {k: v["ok"] for k, v in kept.items() if v["seeds"] == res["seeds"] and k != label}
+    shown[label or "this run"] = res["ok"]
+    lines = ["Coverage among the samples said ok (issue 46): the samples above, those whose verdict code is ok. "
+             "The Wilson interval counts the samples as independent, which they are not (the live band's errors "
+             f"are correlated over its memory, seconds): the per-trial rows show the spread. Runs kept in "
+             f"`benchmarks/{OK_JSON.name}` are shown under their label.", "",
+             "| trial | " + " | ".join(f"{k}: ok share / coverage when ok [95 % Wilson] / median error when ok"
+                                       for k in shown) + " |", "|---|" + "---|" * len(shown)]
+    for trial in res["ok"]:
+        cells = []
+        for figures in shown.values():
+            f = figures.get(trial)
+            err = "–" if not f or f["median_error"] is None else f"{100 * f['median_error']:.1f} %"
+            cells.append("–" if not f else f"{100 * f['ok'] / max(f['samples'], 1):.0f} % / "
+                                           f"{_pct_ci(f['inside'], f['ok'])} / {err}")
+        lines.append(f"| {trial} | " + " | ".join(cells) + " |")
+    return lines
 
 
 # --- part 2: latency in-process -----------------------------------------------------------------
@@ -363,7 +421,7 @@ def e2e_lines(res: dict) -> list[str]:
 
 # --- the section --------------------------------------------------------------------------------
 
-def accuracy_lines(res: dict, quick: bool) -> list[str]:
+def accuracy_lines(res: dict, quick: bool, label: str | None = None) -> list[str]:
     seeds = res["seeds"]
     return [f"Own simulator: the `benchmarks/accuracy.py` scenarios, {seeds} seed(s) each (100…{99 + seeds}), pooled"
             f"{', 15 s trials' if quick else ''}; independent simulator: the six `clean` trials of `suite(7100)` and "
@@ -380,7 +438,7 @@ def accuracy_lines(res: dict, quick: bool) -> list[str]:
             "delay at 0 Hz + the stencil's 4 samples). Lags and delays: median [min, max] over trials; fading memory: "
             "`LiveModel.memory_s` (2 motion periods). Where the true course hardly varies (small span) the lag is not "
             "defined by the data (the lag-0 and best-lag medians are then nearly equal); ≥ 3000: the search's end.",
-            "", *ACCURACY_HEADER, *res["rows"]]
+            "", *ACCURACY_HEADER, *res["rows"], "", *ok_lines(res, label)]
 
 
 def version() -> str:
@@ -395,7 +453,7 @@ def version() -> str:
         f"{hashlib.sha1(diff).hexdigest()[:8]})" if changed else "")
 
 
-def section(res: dict, quick: bool, load: tuple[float, float], code: tuple[str, str]) -> str:
+def section(res: dict, quick: bool, load: tuple[float, float], code: tuple[str, str], label: str | None = None) -> str:
     stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     lines = ["## Live estimate (`benchmarks/live.py`, issue 38)", "",
              f"Machine: {machine()}; run {stamp} on {code[0]}"
@@ -405,7 +463,7 @@ def section(res: dict, quick: bool, load: tuple[float, float], code: tuple[str, 
              "at the end (a shared machine)." + (" A `--quick` run." if quick else ""), ""]
     if "accuracy" in res:
         lines += ["### Causal live estimate against the offline smoother", "",
-                  *accuracy_lines(res["accuracy"], quick), ""]
+                  *accuracy_lines(res["accuracy"], quick, label), ""]
     if "latency" in res:
         lines += ["### Latency in-process", "", *latency_lines(res["latency"]), ""]
     if "e2e" in res:
@@ -420,22 +478,31 @@ def main(argv=None) -> None:
     parser.add_argument("--only", help=f"comma-separated parts among {','.join(PARTS)}; "
                                        "prints, does not write RESULTS.md")
     parser.add_argument("--seeds", type=int, default=2, help="seeds per accuracy scenario (full mode)")
+    parser.add_argument("--generators", default=",".join(GENERATORS),
+                        help="the accuracy part's trials: own, independent or both (comma-separated); "
+                             "one alone prints, does not write RESULTS.md")
+    parser.add_argument("--label", help=f"keep the coverage-among-ok figures in benchmarks/{OK_JSON.name} "
+                                        "under this name (e.g. before, after)")
     args = parser.parse_args(argv)
+    generators = args.generators.split(",")
+    if set(generators) - set(GENERATORS):
+        parser.error(f"unknown generators {sorted(set(generators) - set(GENERATORS))}; choose among own, independent")
     parts = args.only.split(",") if args.only else list(PARTS)
     unknown = set(parts) - set(PARTS)
     if unknown:
         parser.error(f"unknown parts {sorted(unknown)}; choose among {', '.join(PARTS)}")
     load, res, code = os.getloadavg()[0], {}, version()
     if "accuracy" in parts:
-        res["accuracy"] = accuracy_part(args.quick, 1 if args.quick else args.seeds)
+        res["accuracy"] = accuracy_part(args.quick, 1 if args.quick else args.seeds, generators)
     if "latency" in parts:
         res["latency"] = latency_part(args.quick)
     if "e2e" in parts:
         res["e2e"] = e2e_part(args.quick)
-    text = section(res, args.quick, (load, os.getloadavg()[0]), (code, version()))
+    text = section(res, args.quick, (load, os.getloadavg()[0]), (code, version()), args.label)
     print(text)
-    if args.only or args.quick:
-        print("(--only or --quick: RESULTS.md not written)")
+    partial = args.only or args.quick or set(generators) != set(GENERATORS)
+    if partial:
+        print("(--only, --quick or one generator: RESULTS.md not written)")
     else:
         update_section("live", text)
 
