@@ -293,7 +293,8 @@ def test_changing_check_flags_an_estimate_that_moved_more_than_its_band():
     ones = np.ones(k, bool)
 
     def check(stiffness, half, memory):
-        return live_checks(stiffness, stiffness - half, stiffness + half, ones, e, s, z, y, memory=memory)
+        recent = None if memory is None else stiffness[-1 - memory:]       # the estimate over its memory
+        return live_checks(stiffness, stiffness - half, stiffness + half, ones, e, s, z, y, recent=recent)
 
     assert "changing" not in check(flat, 0.5, 80).failed
     moved = check(ramp, 0.5, 80)              # moved 0.80 over the memory, band half-width 0.5: 1.61
@@ -471,8 +472,11 @@ def test_a_step_of_the_clock_offset_is_reported():
 
 def test_an_empty_window_judges_nothing():
     empty = np.zeros(0)
-    checks = live_checks(empty, empty, empty, empty.astype(bool), empty, empty, empty, empty, memory=5)
+    checks = live_checks(empty, empty, empty, empty.astype(bool), empty, empty, empty, empty)
     assert checks.verdict == OK and checks.failed == () and np.isnan(checks.motion)
+    # asked whether the estimate changes, an empty window cannot tell: not ok on nothing judged
+    checks = live_checks(empty, empty, empty, empty.astype(bool), empty, empty, empty, empty, recent=np.full(5, np.nan))
+    assert checks.failed == ("settling",) and checks.verdict == CAUTION
 
 
 def test_huge_finite_values_are_not_taken_for_missing_ones():

@@ -56,10 +56,9 @@ class Record:
 class Window:
     """The model steps of the last window (rows of :data:`~limbstiff.live.kernel.OUT`), in a ring."""
 
-    def __init__(self, capacity: int, memory: int | None = None):
+    def __init__(self, capacity: int):
         self.ring = np.empty((max(capacity, 1), 10))
         self.pos = self.count = 0
-        self.memory = memory
         self.decimation = 0
 
     def add(self, rows: np.ndarray):
@@ -76,18 +75,20 @@ class Window:
         """The last ``k`` rows held, in order."""
         return self.ring[(self.pos - k + np.arange(k)) % len(self.ring)]
 
-    def checks(self, looked_back: Hindsight | None = None) -> LiveChecks:
+    def checks(self, looked_back: Hindsight | None = None, recent: np.ndarray | None = None) -> LiveChecks:
+        """:func:`~limbstiff.live.checks.live_checks` over the steps held."""
         rows = self.tail(self.count)
         return live_checks(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3] > 0, rows[:, 5], rows[:, 6], rows[:, 7],
-                           rows[:, 8], memory=self.memory, looked_back=looked_back)
+                           rows[:, 8], recent=recent, looked_back=looked_back)
 
 
 class PublishedBand:
-    """The band published at the segment's last samples, by segment position, in a ring: rows of
-    (lo, hi, observable); NaN for samples not published (before an estimate, bridged)."""
+    """The estimate and band published at the segment's last samples, by segment position, in a
+    ring: rows of (stiffness, lo, hi, observable); NaN for samples not published (before an
+    estimate, bridged)."""
 
     def __init__(self, capacity: int):
-        self.rows = np.full((max(capacity, 1), 3), np.nan)
+        self.rows = np.full((max(capacity, 1), 4), np.nan)
         self.end = 0            # the segment position after the last sample held
 
     def add(self, position: int, rows: np.ndarray | None, n: int = 0) -> None:
@@ -97,7 +98,7 @@ class PublishedBand:
         k = n if rows is None else len(rows)
         start = position % size
         if k <= size - start:              # most chunks: one slice, no wrap
-            self.rows[start:start + k] = np.nan if rows is None else rows[:, 1:4]
+            self.rows[start:start + k] = np.nan if rows is None else rows[:, :4]
             self.end = position + k
             return
         skip = max(k - size, 0)
@@ -105,7 +106,7 @@ class PublishedBand:
         first = min(k - skip, size - start)
         for into, take in ((slice(start, start + first), slice(skip, skip + first)),
                            (slice(0, k - skip - first), slice(skip + first, k))):
-            self.rows[into] = np.nan if rows is None else rows[take, 1:4]
+            self.rows[into] = np.nan if rows is None else rows[take, :4]
         self.end = position + k
 
     def between(self, first: int, end: int) -> tuple[np.ndarray, np.ndarray]:
@@ -114,6 +115,15 @@ class PublishedBand:
         out = np.full((end - first, 3), np.nan)
         held = max(first, self.end - size, 0)
         if held < end:
-            out[held - first:] = self.rows[np.arange(held, end) % size]
+            out[held - first:] = self.rows[np.arange(held, end) % size, 1:]
         informed = out[:, 2] > 0
         return np.where(informed, out[:, 0], np.nan), np.where(informed, out[:, 1], np.nan)
+
+    def recent(self, k: int) -> np.ndarray:
+        """The stiffness published at the last ``k`` positions (NaN where none was, or not held)."""
+        first = self.end - k
+        out = np.full(k, np.nan)
+        held = max(first, self.end - len(self.rows), 0)
+        if held < self.end:
+            out[held - first:] = self.rows[np.arange(held, self.end) % len(self.rows), 0]
+        return out

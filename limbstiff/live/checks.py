@@ -18,9 +18,17 @@ Over the last :data:`WINDOW_PERIODS` motion periods of model steps (at least :da
   half-width and over :data:`TRACKING_Z` standard errors (√(ΣS·Δy²)/ΣΔy², the errors independent
   with variance S) is ``caution``: the estimate lags and its band is too narrow there;
 * changing — the estimate has moved by more than its band's half-width over its memory (two
-  motion periods): the stiffness is changing, and a causal estimate lags a change by a good part of
-  its memory, which its band does not hold: ``caution``. It cannot help where the live model itself
-  is off;
+  motion periods; now against a memory ago), or has swung by more than its band's width within it
+  (its range over the memory, largest minus smallest: :data:`SWING_HALF_WIDTHS` half-widths, bands
+  that far apart cannot both have held a stiffness that stayed put): the stiffness is changing,
+  and a causal estimate lags a change by a good part of its memory, which its band does not hold:
+  ``caution``. The swing sees a stiffness that swings back within the memory, which the ends miss
+  (issue 46: where the band missed on samples said ``ok`` on the independent simulator,
+  benchmarks/RESULTS.md#live).
+  It cannot help where the live model itself is off;
+* settling — until the estimate has run for its memory (after its start, a break, or a new
+  model's other steps) whether it is changing cannot be told, and a fresh estimate is still
+  converging: ``caution``, not ``ok`` on checks that judged nothing;
 * hindsight — each identification and noise refit also smooths its record as the offline
   analysis does (zero-phase filtered, the identification's m, b and noise levels), which does not
   lag. Over one checks window (:func:`window_s`) ending a memory and the filter's edge before its
@@ -50,10 +58,29 @@ from ..checks.verdict import (BAND_WIDTH_MAX, BAND_ZERO_MAX, CAUTION, HELDOUT_CA
                               NEGATIVE_SHARE_MAX, NEGLIGIBLE_RESIDUAL, NO_ESTIMATE, UNRELIABLE, WHITENESS_MAX,
                               Verdict)
 
+#: The estimate's range over its memory, in half-widths of its band now, above which it is
+#: ``changing`` although its ends agree: the band's width — two bands within the memory further
+#: apart than that cannot both hold a stiffness that stayed put. (One half-width, the ends' limit,
+#: fired on the estimate's own noise on a third of the checks of a constant stiffness.) Chosen on
+#: suite seeds 7100 and 7200 of the independent simulator, verified on 7300 and 7400
+#: (docs/benchmarks.md, "Live and independent trials: coverage among ok").
+SWING_HALF_WIDTHS = 2.0
 #: Standard errors |β| must exceed for the tracking check (a two-sided test at 0.27 %; not fitted).
 TRACKING_Z = 3.0
 #: The window the checks look back over, in motion periods, and at least this many seconds.
 WINDOW_PERIODS, WINDOW_MIN_S = 10.0, 5.0
+#: What each failed check means for the live estimate, in plain words (the status line, ``stream.json``).
+REASONS = {
+    "settling": "the estimate has not yet run for its memory: whether the stiffness is changing cannot be told yet",
+    "motion": "the motion informs less than half of the recent samples",
+    "torque_explained": "the model explains little of the torque",
+    "tracking": "the stiffness changes faster than the live estimate follows: its band is too narrow",
+    "changing": "the stiffness is changing: the live estimate lags it and its band may not hold it",
+    "hindsight": "looking back, the band missed the smoothed course more often than it should",
+    "noise": "the prediction errors are not white: the model misses part of the torque",
+    "band_width": "the band is wide against the stiffness",
+    "negative_stiffness": "the estimate is negative on part of the recent samples",
+}
 #: Codes of the ``verdict`` channel and what they mean: no estimate yet (warming up), then each
 #: :class:`~limbstiff.checks.verdict.Verdict`'s code.
 VERDICT_NAMES = {NO_ESTIMATE: "no estimate yet", **{v.code: v.value for v in Verdict}}
@@ -83,8 +110,10 @@ class LiveChecks:
     tracking : float
         β over the band's median half-width (NaN without steps).
     moved : float
-        How far the estimate moved over its memory, in half-widths of its band now (NaN before
-        the window spans the memory).
+        How far the estimate moved over its memory (now against a memory ago), in half-widths of
+        its band now (NaN before the estimate has run for its memory: then ``settling``).
+    swing : float
+        Its range within the memory, in the same half-widths (NaN as ``moved``).
     whiteness : float
         Largest |autocorrelation| of the standardised prediction errors, lags 1–10 steps.
     band_width : float
@@ -104,6 +133,7 @@ class LiveChecks:
     explained: float
     tracking: float
     moved: float
+    swing: float
     whiteness: float
     band_width: float
     negative_share: float
@@ -205,21 +235,26 @@ def _tracking(innovation, innovation_variance, angle, half_width) -> tuple[float
     return abs(beta) / half_width, abs(beta) / se if se > 0 else float("inf")
 
 
-def _moved(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, memory: int | None) -> float:
-    """How far the estimate moved over its ``memory`` (model steps), in band half-widths now (NaN
-    when not measurable: no memory given, the window shorter, or the band empty)."""
-    if memory is not None and 0 < memory < len(stiffness):
-        half_now = 0.5 * (hi[-1] - lo[-1])
-        if half_now > 0 and np.isfinite(stiffness[-1 - memory]):
-            return abs(stiffness[-1] - stiffness[-1 - memory]) / half_now
-    return float("nan")
+def _moved(recent: np.ndarray | None, half_now: float) -> tuple[float, float]:
+    """How far the estimate moved over its memory, and its range within it: ``recent`` (the estimate
+    published over its last memory, per sample; NaN where none was) end against start, and largest
+    minus smallest, over ``half_now``, its band's half-width now. NaN when not measurable: not asked
+    for, the estimate did not exist a memory ago, or the band is empty."""
+    if recent is None or not len(recent) or not np.isfinite(recent[0]) or not half_now > 0:
+        return float("nan"), float("nan")
+    return (abs(float(recent[-1] - recent[0])) / half_now,
+            float(np.nanmax(recent) - np.nanmin(recent)) / half_now)
 
 
-def _severity(*, motion: float, explained: float, tracking: float, z: float, moved: float,
+def _severity(*, motion: float, explained: float, tracking: float, z: float, moved: float, swing: float,
+              judged: bool,
               looked_back: Hindsight | None, white: float, width: float, negative: float) -> dict[str, Verdict]:
     """The failed checks' severities, by name, in the order :attr:`LiveChecks.failed` lists them
-    (the figures as :func:`live_checks` measures them; a NaN fails nothing)."""
+    (the figures as :func:`live_checks` measures them; a NaN fails nothing but ``settling``:
+    ``judged`` False when the ``changing`` check was asked for and could not be made)."""
     severity = {}
+    if not judged:
+        severity["settling"] = CAUTION
     if motion < MOTION_MIN:
         severity["motion"] = CAUTION
     if explained < HELDOUT_UNRELIABLE:
@@ -228,7 +263,7 @@ def _severity(*, motion: float, explained: float, tracking: float, z: float, mov
         severity["torque_explained"] = CAUTION
     if tracking > 1.0 and z > TRACKING_Z:
         severity["tracking"] = CAUTION
-    if moved > 1.0:
+    if moved > 1.0 or swing > SWING_HALF_WIDTHS:
         severity["changing"] = CAUTION
     if looked_back is not None and looked_back.too_narrow:
         severity["hindsight"] = CAUTION
@@ -245,7 +280,8 @@ def _severity(*, motion: float, explained: float, tracking: float, z: float, mov
 
 def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observable: np.ndarray,
                 innovation: np.ndarray, innovation_variance: np.ndarray, measured: np.ndarray,
-                angle: np.ndarray, *, memory: int | None = None, looked_back: Hindsight | None = None) -> LiveChecks:
+                angle: np.ndarray, *, recent: np.ndarray | None = None,
+                looked_back: Hindsight | None = None) -> LiveChecks:
     """The checks over one window.
 
     Parameters
@@ -255,9 +291,10 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
     observable : ndarray of bool, shape (n,)
     innovation, innovation_variance, measured, angle : ndarray, shape (k,)
         At the window's model steps, in order: e, S, z and y (N·m, (N·m)², N·m, rad).
-    memory : int, optional
-        The estimate's memory in model steps (the ``changing`` check; not made without it). The
-        stiffness arrays must then be at the same steps, in order.
+    recent : ndarray, shape (k,), N·m/rad (N/m), optional
+        The estimate published at every sample of its last memory, across a new model's take-over
+        (NaN where none was: before the estimate, a bridged gap): the ``changing`` and ``settling``
+        checks, not made without it.
     looked_back : Hindsight, optional
         The last look back that could be judged, an identification's or a noise refit's (the
         ``hindsight`` check; not made without it).
@@ -279,9 +316,11 @@ def live_checks(stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray, observabl
     explained = 1.0 - float(innovation @ innovation) / spread if spread > 0 else float("nan")
     white = _whiteness(innovation / np.sqrt(innovation_variance)) if len(innovation) else float("nan")
     tracking, z = _tracking(innovation, innovation_variance, angle, 0.5 * width * abs(median))
-    moved = _moved(stiffness, lo, hi, memory)
-    severity = _severity(motion=motion, explained=explained, tracking=tracking, z=z, moved=moved,
+    moved, swing = _moved(recent, 0.5 * float(hi[-1] - lo[-1]) if len(hi) else float("nan"))
+    severity = _severity(motion=motion, explained=explained, tracking=tracking, z=z, moved=moved, swing=swing,
+                         judged=recent is None or bool(np.isfinite(moved)),
                          looked_back=looked_back, white=white, width=width, negative=negative)
     verdict = Verdict.worst(severity.values())
-    return LiveChecks(motion=motion, explained=explained, tracking=tracking, moved=moved, whiteness=white, band_width=width,
+    return LiveChecks(motion=motion, explained=explained, tracking=tracking, moved=moved, swing=swing,
+                      whiteness=white, band_width=width,
                       negative_share=negative, hindsight=looked_back, verdict=verdict, failed=tuple(severity))

@@ -32,7 +32,7 @@ from ..files.outputs import jsonable, write_json
 from ..files.recording import GrowingTable, SegmentedRecording
 from ..protocol import Protocol
 from ..provenance import software
-from .checks import VERDICT_NAMES
+from .checks import REASONS, VERDICT_NAMES
 from .latency import Latency
 from .session import MEMORY_PERIODS, REFIT_EVERY_S, WARMUP_S, Identifier, LiveSession
 from .status import status_line
@@ -390,10 +390,10 @@ def _summary(settings, description, session, stopped, latency, offsets, paths, n
         "failed_noise_refits": [{**d, "at_s": d["at_samples"] / fs} for d in ev.failed_refits],
         "last_checks": None if checks is None else {
             "motion": checks.motion, "torque_explained": checks.explained,
-            "tracking": checks.tracking, "moved": checks.moved,
+            "tracking": checks.tracking, "moved": checks.moved, "swing": checks.swing,
             "whiteness": checks.whiteness, "band_width": checks.band_width,
             "negative_share": checks.negative_share, "hindsight": checks.hindsight,
             "verdict": checks.verdict.value,
-            "failed": list(checks.failed)},
+            "failed": list(checks.failed), "reasons": [REASONS[name] for name in checks.failed]},
         "latency": latency.summary(), "notes": notes, "seed": settings.seed, "software": software(),
     })

@@ -258,7 +258,7 @@ class LiveSession:
             fresh = self._verdict == NO_ESTIMATE and np.isfinite(out.rows[-1, 0])     # a first estimate
             if self._since_check >= CHECK_EVERY_S * self.fs or fresh:
                 self._since_check = 0
-                self.events.checks = self._window.checks(self._looked_back)
+                self.events.checks = self._window.checks(self._looked_back, self._recent())
                 self._verdict = self.events.checks.verdict.code
             values[:, 4] = self._verdict
             if np.isnan(values[0, 0]):        # the estimate's first samples (a prefix): none yet
@@ -356,6 +356,12 @@ class LiveSession:
             self._looked_back = found
         return found
 
+    def _recent(self) -> np.ndarray | None:
+        """The estimate published over its memory (the ``changing`` and ``settling`` checks), or None
+        for a model without one."""
+        m = self.model
+        return None if m.memory_s is None else self._band.recent(max(1, int(round(m.memory_s * self.fs))))
+
     def _due(self, done: int) -> float:
         """:func:`identification_due`, remembered (it is asked for every chunk)."""
         if self._due_for != done:
@@ -378,8 +384,7 @@ class LiveSession:
         """A window for the model now; with the steps of ``keep`` when they are the same steps (the
         checks then look back across a take-over, which a change that starts then needs)."""
         m = self.model
-        memory = None if m.memory_s is None else max(1, int(round(m.memory_s * m.fs / m.decimation)))
-        window = Window(self._window_steps(), memory)
+        window = Window(self._window_steps())
         if keep is not None and keep.count and keep.decimation == m.decimation:
             window.add(keep.tail(keep.count))
         window.decimation = m.decimation

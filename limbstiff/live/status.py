@@ -4,9 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from .checks import REASONS
+
 
 def status_line(session, *, stalled_s: float | None = None, ended: bool = False) -> str:
-    """One line: record length, the last stiffness and band, the live checks, m and b, the stream's state.
+    """One line: record length, the last stiffness and band, the live checks (the failed ones' names,
+    and what the first means in plain words: :data:`~limbstiff.live.checks.REASONS`), m and b, the
+    stream's state.
 
     Parameters
     ----------
@@ -39,7 +43,8 @@ def status_line(session, *, stalled_s: float | None = None, ended: bool = False)
             parts.append(f"informed {100 * checks.motion:.0f} %")
         if np.isfinite(checks.explained):
             parts.append(f"explained {100 * checks.explained:.1f} %")
-        parts.append(f"verdict {checks.verdict.value}" + (f" ({', '.join(checks.failed)})" if checks.failed else ""))
+        parts.append(f"verdict {checks.verdict.value}" + (f" ({', '.join(checks.failed)}: {REASONS[checks.failed[0]]})"
+                                                          if checks.failed else ""))
     if ev.dropped_samples:
         parts.append(f"dropped {ev.dropped_samples}")
     if ev.breaks:
