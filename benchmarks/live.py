@@ -19,7 +19,8 @@ Parts (``--only`` runs some of them, prints their tables and leaves RESULTS.md a
     among ``ok`` (issue 46), per trial and pooled per simulator: the share of samples said ``ok``,
     the band's coverage on them with a 95 % Wilson interval (counting samples as independent,
     which they are not: hence also per trial), and their median error. ``--generators`` runs one
-    simulator's trials only; ``--label`` keeps these figures in ``live_ok.json`` under a name
+    simulator's trials only, ``--suites`` other suites of the independent simulator (held-out
+    trials); ``--label`` keeps these figures in ``live_ok.json`` under a name
     (``before``: the code before issue 46's changes), and the section shows every label kept.
 ``latency``
     ``LiveSession.feed`` per sample in steady state, chunks of 1, 10 and 32 samples at 1 kHz on
@@ -68,6 +69,8 @@ from tests.support import independent_trials  # noqa: E402
 
 PARTS = ("accuracy", "latency", "e2e")
 GENERATORS = ("own", "independent")
+#: The independent simulator's suite seeds replayed (``--suites``: others, such as 7300 and 7400, as held-out trials).
+SUITES = (7100, 7200)
 #: Where ``--label`` keeps the coverage-among-ok figures of each run.
 OK_JSON = HERE / "live_ok.json"
 SKIP_S = WARMUP_S              # statistics over the samples after the first identification is due
@@ -151,9 +154,9 @@ def pooled_row(label: str, source: str, runs: list[dict]) -> str:
             f"| {spread([r['memory'] for r in runs], 1.0, '.2f')} |")
 
 
-def independent(quick: bool) -> list[Trial]:
-    """The clean trials of the independent simulator's suites 7100 and 7200 (two cut to 15 s when quick)."""
-    specs = [s for seed in (7100, 7200) for s in independent_trials.suite(seed) if s.family == "clean"]
+def independent(quick: bool, suites=SUITES) -> list[Trial]:
+    """The clean trials of the independent simulator's suites (two cut to 15 s when quick)."""
+    specs = [s for seed in suites for s in independent_trials.suite(seed) if s.family == "clean"]
     trials = []
     for spec in specs[:2] if quick else specs:
         data = independent_trials.make_trial(spec)[0]
@@ -173,7 +176,7 @@ ACCURACY_HEADER = [
     "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
 
-def accuracy_part(quick: bool, seeds: int, generators=GENERATORS) -> dict:
+def accuracy_part(quick: bool, seeds: int, generators=GENERATORS, suites=SUITES) -> dict:
     """Part 1: rows per accuracy scenario (seeds pooled) and per independent trial, and the
     coverage-among-ok figures (:func:`ok_figures`) per row."""
     rows, own, alone, ok = [], [], [], {}
@@ -184,7 +187,7 @@ def accuracy_part(quick: bool, seeds: int, generators=GENERATORS) -> dict:
         rows.append(pooled_row(name, "own", runs))
         ok[name] = ok_figures(runs)
         print(rows[-1], flush=True)
-    for trial in independent(quick) if "independent" in generators else ():
+    for trial in independent(quick, suites) if "independent" in generators else ():
         run = compare(trial)
         alone.append(run)
         rows.append(pooled_row(trial.name, "independent", [run]))
@@ -196,7 +199,7 @@ def accuracy_part(quick: bool, seeds: int, generators=GENERATORS) -> dict:
             rows.append(pooled_row(label, source, runs))
             ok[label] = ok_figures(runs)
     refits = [r["refits"] for r in own + alone]
-    return {"rows": rows, "seeds": seeds, "refits": (min(refits), max(refits)), "ok": ok}
+    return {"rows": rows, "seeds": seeds, "suites": list(suites), "refits": (min(refits), max(refits)), "ok": ok}
 
 
 def ok_figures(runs: list[dict]) -> dict:
@@ -220,9 +223,12 @@ def ok_lines(res: dict, label: str | None) -> list[str]:
     under other labels (same trials, same seeds)."""
     kept = json.loads(OK_JSON.read_text(encoding="utf-8")) if OK_JSON.exists() else {}
     if label:
-        kept[label] = {"seeds": res["seeds"], "ok": res["ok"]}
+        if tuple(res["suites"]) != SUITES:
+            label = f"{label} (suites {' '.join(map(str, res['suites']))})"
+        kept[label] = {"seeds": res["seeds"], "suites": res["suites"], "ok": res["ok"]}
         OK_JSON.write_text(json.dumps(kept, indent=1) + "\n", encoding="utf-8")
-    shown = {k: v["ok"] for k, v in kept.items() if v["seeds"] == res["seeds"] and k != label}
+    shown = {k: v["ok"] for k, v in kept.items()
+             if (v["seeds"], v.get("suites", list(SUITES))) == (res["seeds"], res["suites"]) and k != label}
     shown[label or "this run"] = res["ok"]
     lines = ["Coverage among the samples said ok (issue 46): the samples above, those whose verdict code is ok. "
              "The Wilson interval counts the samples as independent, which they are not (the live band's errors "
@@ -424,8 +430,8 @@ def e2e_lines(res: dict) -> list[str]:
 def accuracy_lines(res: dict, quick: bool, label: str | None = None) -> list[str]:
     seeds = res["seeds"]
     return [f"Own simulator: the `benchmarks/accuracy.py` scenarios, {seeds} seed(s) each (100…{99 + seeds}), pooled"
-            f"{', 15 s trials' if quick else ''}; independent simulator: the six `clean` trials of `suite(7100)` and "
-            f"`suite(7200)`{' (two, cut to 15 s)' if quick else ''}. Live: `LiveSession(fs, Immediately())` fed "
+            f"{', 15 s trials' if quick else ''}; independent simulator: the six `clean` trials of "
+            f"{' and '.join(f'`suite({x})`' for x in res['suites'])}{' (two, cut to 15 s)' if quick else ''}. Live: `LiveSession(fs, Immediately())` fed "
             f"chunks of {CHUNK} samples (identifications at 5, 10, 20 s of record, noise refits between them: "
             f"{res['refits'][0]}–{res['refits'][1]} per trial); smoother: "
             "`analyze(trial, seed=0)`. "
@@ -481,6 +487,9 @@ def main(argv=None) -> None:
     parser.add_argument("--generators", default=",".join(GENERATORS),
                         help="the accuracy part's trials: own, independent or both (comma-separated); "
                              "one alone prints, does not write RESULTS.md")
+    parser.add_argument("--suites", type=int, nargs="+", default=list(SUITES),
+                        help="the independent simulator's suite seeds (others than 7100 7200: prints, does not "
+                             "write RESULTS.md)")
     parser.add_argument("--label", help=f"keep the coverage-among-ok figures in benchmarks/{OK_JSON.name} "
                                         "under this name (e.g. before, after)")
     args = parser.parse_args(argv)
@@ -493,14 +502,14 @@ def main(argv=None) -> None:
         parser.error(f"unknown parts {sorted(unknown)}; choose among {', '.join(PARTS)}")
     load, res, code = os.getloadavg()[0], {}, version()
     if "accuracy" in parts:
-        res["accuracy"] = accuracy_part(args.quick, 1 if args.quick else args.seeds, generators)
+        res["accuracy"] = accuracy_part(args.quick, 1 if args.quick else args.seeds, generators, args.suites)
     if "latency" in parts:
         res["latency"] = latency_part(args.quick)
     if "e2e" in parts:
         res["e2e"] = e2e_part(args.quick)
     text = section(res, args.quick, (load, os.getloadavg()[0]), (code, version()), args.label)
     print(text)
-    partial = args.only or args.quick or set(generators) != set(GENERATORS)
+    partial = args.only or args.quick or set(generators) != set(GENERATORS) or tuple(args.suites) != SUITES
     if partial:
         print("(--only, --quick or one generator: RESULTS.md not written)")
     else:
