@@ -244,6 +244,15 @@ def ok_lines(res: dict, label: str | None) -> list[str]:
             cells.append("–" if not f else f"{100 * f['ok'] / max(f['samples'], 1):.0f} % / "
                                            f"{_pct_ci(f['inside'], f['ok'])} / {err}")
         lines.append(f"| {trial} | " + " | ".join(cells) + " |")
+    pooled = "**all, independent simulator**"
+    other = {k: v["ok"][pooled] for k, v in kept.items() if v.get("suites", list(SUITES)) != res["suites"]
+             and pooled in v["ok"]}
+    if other:
+        lines += ["", "Other suites of the independent simulator (`--suites`, kept in the JSON), their six clean trials "
+                  "pooled: ok share / coverage when ok [95 % Wilson] / median error when ok:", ""]
+        for k, f in other.items():
+            err = "–" if f["median_error"] is None else f"{100 * f['median_error']:.1f} %"
+            lines.append(f"- {k}: {100 * f['ok'] / max(f['samples'], 1):.0f} % / {_pct_ci(f['inside'], f['ok'])} / {err}")
     return lines
 
 
