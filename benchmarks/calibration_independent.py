@@ -24,7 +24,7 @@ errors are correlated over seconds, so also the per-trial median and the share o
 ≥ 85 %), how often the ``median_stiffness`` interval holds the true median (a Wilson interval over
 trials) and the median error. ``--label`` keeps these figures in ``calibration_independent.json``
 under a name (``before``: the code before issue 46's changes); the section shows every label kept.
-Run time, one process: about 25 minutes for the two suite seeds and the pause trials.
+Run time: about 3 minutes with ``--jobs 1`` for the two suite seeds and the pause trials (the section says each run's).
 """
 
 from __future__ import annotations
