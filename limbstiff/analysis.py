@@ -25,16 +25,19 @@ from .band import half_width, stiffness_band
 from .blas_threads import one_blas_thread
 from .checks import check_analysis
 from .checks.analysis import sign_hint
-from .checks.model import angle_terms_on
+from .checks.analysis import median_sign
+from .checks.model import MIN_STEPS, angle_terms_on
 from .checks.reflex import ReflexShift, reflex_check
+from .checks.shape import ShapeMiss, shape_miss, velocity_shape_check
 from .checks.units import implausible_inertia, plausible, units_checks
 from .checks.verdict import MOTION_MIN, ModelChecks
 from .coefficients import Coefficients
 from .curve_result import curve_analysis
-from .effects.in_model import ShapeProfile, reflex_probe, reflex_shift
+from .effects.in_model import ShapeProfile, reflex_probe, reflex_shift, velocity_shapes
 from .errors import TrialError
 from .estimate import estimators
 from .estimate.informed import band_informed
+from .estimate.observer import informed_samples
 from .figure_draws import trial_level_figures
 from .files import read_trial
 from .filtered import Filtered
@@ -182,6 +185,25 @@ def _reflex_shift(course: Course, ident: Identification | None, observable: np.n
                         informed=observable)
 
 
+def _shape_miss(trial: Trial, filtered: Filtered, course: Course, ident: Identification | None,
+                observable: np.ndarray) -> ShapeMiss | None:
+    """Torques that follow the velocity through a threshold (:func:`velocity_shapes`, from the
+    analysis's ``filtered`` signals before any effect is taken off), fitted beside the Kalman model
+    with m and b when they are identified (:func:`shape_miss`); None for the direct variant, the
+    observers, or too few steps."""
+    steps = course.estimate.steps
+    if steps is None or filtered.variant != "external" or len(steps.index) < MIN_STEPS:
+        return None
+    f = course.filtered
+    nuisance = (None if ident is None or ident.given else
+                np.vstack([f.acceleration[steps.index], f.velocity[steps.index]]))
+    try:
+        return shape_miss(steps, course.estimate.fit.noise, velocity_shapes(trial, filtered)[:, steps.index],
+                          nuisance=nuisance, informed=observable[steps.index], motion_frequency=f.motion_hz)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+        return None             # a check that cannot be computed is skipped, the analysis kept
+
+
 def _informed(course: Course, derived: DerivedSettings, trial: Trial, protocol: Protocol) -> np.ndarray:
     """The samples the motion informs, and (a posterior variance: the observers' is a spread of
     ratios) where the course's band is informative."""
@@ -202,8 +224,10 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
     observable = _informed(course, derived, trial, protocol)
     stiffness, lo, hi = stiffness_band(estimate, course.covariance, coupling, observable, level)
     corrected = stiffness is not estimate.stiffness
+    miss = _shape_miss(trial, signals.filtered, course, ident, observable)
     angle = (None if estimate.steps is None else
-             angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=course.filtered.motion_hz))
+             angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=course.filtered.motion_hz,
+                            beside=miss.columns if miss is not None and miss.significant else None))
     figures = trial_level_figures(course.filtered, estimate, course.coefficients, observable, level=level,
                                   seed=seed, limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle)
     checks = check_analysis(course.filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
@@ -212,7 +236,11 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
     reflex = reflex_check(_reflex_shift(course, ident, observable, level))
     curve = spec.curve and curve_analysis(prepared, spec.curve, estimate, ident, observable=observable,
                                           stiffness=stiffness, level=level, seed=seed)
-    more = ((reflex,) if reflex is not None else ()) + (curve.checks if curve else ())
+    informed = informed_samples(observable)
+    shape = velocity_shape_check(miss, stiffness=float(np.median(stiffness[informed])),
+                                 half_width=float(np.median((hi - lo)[informed])) / 2, level=level)
+    more = tuple(c for c in (reflex, shape, median_sign(figures.median_stiffness)) if c is not None)
+    more += curve.checks if curve else ()
     checks = units_checks(ModelChecks(checks.checks + more), implausible_inertia(trial, protocol, ident, found))
     return StiffnessResult(
         trial=trial, variant=signals.filtered.variant, estimator=protocol.estimator, stiffness=stiffness,

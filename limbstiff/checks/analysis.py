@@ -218,6 +218,21 @@ def _angle_dependence(found: AngleTerms | None, stiffness, lo, hi, observable) -
                  f"does): {tail}", CAUTION)
 
 
+def median_sign(median) -> Check:
+    """``unreliable`` when the median stiffness's interval (an :class:`~limbstiff.interval.Interval`,
+    N·m/rad) lies wholly below zero: a limb or a spring is not negatively stiff, the model does not
+    fit whatever the course's share of negative samples. Passes when the interval is not finite."""
+    hi = finite_or_none(median.hi)
+    if hi is None or hi >= 0:
+        return Check("median_stiffness_sign", hi, 0.0, True,
+                     "the median stiffness's interval reaches above zero" if hi is not None else
+                     "the median stiffness has no interval to judge")
+    return Check("median_stiffness_sign", hi, 0.0, False,
+                 f"the median stiffness's interval lies wholly below zero ({median.lo:.3g} to {median.hi:.3g}): a "
+                 "limb is not negatively stiff, so the model does not fit (check the torque's sign and units, or "
+                 "run `limbstiff diagnose`); do not use the stiffness", UNRELIABLE)
+
+
 def _noise_levels(margins: np.ndarray, negligible: bool, share: float) -> Check:
     if negligible:
         return _negligible("noise_levels_at_bounds", float(min(margins[0], *margins[2:])), BOUND_MARGIN, share)

@@ -32,9 +32,11 @@ from ..mechanics.likelihood import MechanicsProblem, kalman_mechanics, robust_co
 from ..protocol import Protocol
 from ..statespace.noise import NoiseLevels
 from ..trial import Trial
+from ..unmodelled import delay_signal
+from .candidates import ACTIVATION_HZ, activation
 from .registry import CANDIDATES, IN_MODEL
 from .channels import Channels
-from .kinds import Scales, TorqueEffect
+from .kinds import Scales, TorqueEffect, filtered_torque
 
 #: The shapes of an effect are screened on the signals at a lower rate, at least this many times
 #: the low-pass corner (:func:`_screened`).
@@ -323,3 +325,27 @@ def reflex_probe(trial: Trial, filtered: Filtered, protocol: Protocol, ident: Id
         return probe_effect(trial, filtered, "reflex", noise=noise, given=given)
     except (LimbstiffError, np.linalg.LinAlgError, ValueError, FloatingPointError):
         return None             # a check that cannot be computed is skipped, the analysis kept
+
+
+#: The velocity-driven torques the ``velocity_shape`` check fits beside the model
+#: (:mod:`limbstiff.checks.shape`): loop delays, s, within the reflex grid's 20–80 ms …
+SHAPE_DELAYS_S = (0.03, 0.06)
+#: … thresholds, as percentiles of the trial's |ẏ| (a reflex that starts only above some velocity) …
+SHAPE_PERCENTILES = (50.0, 80.0)
+#: … and one activation corner, Hz: the middle of the reflex grid's (:data:`candidates.ACTIVATION_HZ`).
+SHAPE_ACTIVATION_HZ = ACTIVATION_HZ[len(ACTIVATION_HZ) // 2]
+
+
+def velocity_shapes(trial: Trial, filtered: Filtered) -> np.ndarray:
+    """Torques that follow the velocity through a threshold: ±[±ẏ(t − δ) − v₀]₊ through the
+    activation, for δ in :data:`SHAPE_DELAYS_S`, v₀ at :data:`SHAPE_PERCENTILES` of |ẏ| and both
+    directions, filtered as the torque (:func:`filtered_torque`); rad/s, shape (k, n)."""
+    ch = Channels.before_analysis(trial, filtered)
+    speed = np.abs(ch.velocity)
+    rows = []
+    for delay in SHAPE_DELAYS_S:
+        late = delay_signal(ch.time, ch.velocity, delay, before=0.0)
+        for threshold in np.percentile(speed, SHAPE_PERCENTILES):
+            for s in (1.0, -1.0):
+                rows.append(activation(s * np.maximum(s * late - threshold, 0.0), ch.fs, SHAPE_ACTIVATION_HZ))
+    return filtered_torque(ch, np.vstack(rows))

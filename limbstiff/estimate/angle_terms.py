@@ -89,7 +89,8 @@ def angle_regressors(steps: ModelSteps) -> tuple[np.ndarray, np.ndarray]:
 MAX_CONDITION = 1e12
 
 
-def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float) -> AngleTerms | None:
+def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float,
+                    beside: np.ndarray | None = None) -> AngleTerms | None:
     """The angle terms of a trial's Kalman model (module docstring).
 
     Parameters
@@ -100,6 +101,10 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
         The model's noise levels.
     motion_frequency : float, Hz
         Sets the lags of the long-run covariance.
+    beside : ndarray, shape (k, m), optional
+        Torques at the steps fitted together with the terms (a velocity-driven torque the model
+        lacks, :mod:`limbstiff.checks.shape`): the terms then claim only what those do not explain
+        (their innovations projected out of both sides, Frisch–Waugh–Lovell).
 
     Returns
     -------
@@ -107,11 +112,14 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
         None when the motion cannot tell the terms apart (:data:`MAX_CONDITION`).
     """
     U, H = angle_regressors(steps)
-    with_terms = steps.with_channels(U)
-    slopes = with_terms.slopes[1:]
+    with_terms = steps.with_channels(U if beside is None else np.vstack([U, beside]))
+    slopes = with_terms.slopes[1:3]
     e, s = innovations(with_terms, noise)
     e = e / np.sqrt(s)
-    x, eps = e[1:].T, e[0]
+    x, eps = e[1:3].T, e[0]
+    if beside is not None:
+        other = e[3:].T
+        x, eps = (v - other @ np.linalg.lstsq(other, v, rcond=None)[0] for v in (x, eps))
     information = x.T @ x
     if not np.all(np.isfinite(information)) or np.linalg.cond(information) > MAX_CONDITION:
         return None                     # the motion does not tell the two terms apart (or from none)
