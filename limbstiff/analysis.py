@@ -21,7 +21,7 @@ from typing import Sequence
 import numpy as np
 
 from . import bandwidth
-from .band import half_width, stiffness_band
+from .band import ModelForm, half_width, stiffness_band
 from .blas_threads import one_blas_thread
 from .checks import check_analysis
 from .checks.analysis import sign_hint
@@ -33,7 +33,8 @@ from .checks.units import implausible_inertia, plausible, units_checks
 from .checks.verdict import MOTION_MIN, ModelChecks
 from .coefficients import Coefficients
 from .curve_result import curve_analysis
-from .effects.in_model import ShapeProfile, reflex_probe, reflex_shift, velocity_shapes
+from .effects.in_model import ShapeProfile, probe_delta, reflex_probe, reflex_shift, velocity_shapes
+from .effects.model_form import effects_form, model_form
 from .errors import TrialError
 from .estimate import estimators
 from .estimate.informed import band_informed
@@ -185,6 +186,26 @@ def _reflex_shift(course: Course, ident: Identification | None, observable: np.n
                         informed=observable)
 
 
+def _model_form(spec: ModelSpecification, course: Course, ident: Identification | None) -> ModelForm | None:
+    """The alternatives to the chosen model of comparable evidence (:mod:`limbstiff.effects.model_form`):
+    the effects' other shapes and each effect left out, or the probed reflex put in; None without
+    the Kalman estimator's steps and sensitivity."""
+    estimate, coef = course.estimate, course.coefficients
+    if estimate.steps is None or estimate.sensitivity is None or coef is None:
+        return None
+    logs, changes = [], []
+    if spec.effects is not None:
+        at = coef.positions(spec.effects.names)
+        logs, changes = effects_form(spec.effects, coef.values[at], estimate.sensitivity[at], steps=estimate.steps,
+                                     noise=estimate.fit.noise)
+    probe = course.probe
+    if probe is not None and len(estimate.sensitivity) > len(coef.names):
+        rows = estimate.sensitivity[[*coef.positions(("inertia", "damping")), len(coef.names)]]
+        logs.append(probe.loglik_gain - float(np.log(max(probe.shapes_tried, 1))))
+        changes.append(probe_delta(probe, None if ident.given else (ident.inertia, ident.damping)) @ rows)
+    return model_form(logs, changes)
+
+
 def _shape_miss(trial: Trial, filtered: Filtered, course: Course, ident: Identification | None,
                 observable: np.ndarray) -> ShapeMiss | None:
     """Torques that follow the velocity through a threshold (:func:`velocity_shapes`, from the
@@ -222,14 +243,16 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
     """The band, the figures and the checks of the course, as the result."""
     estimate, level, coupling = course.estimate, protocol.ci_level, signals.coupling
     observable = _informed(course, derived, trial, protocol)
-    stiffness, lo, hi = stiffness_band(estimate, course.covariance, coupling, observable, level)
+    form = _model_form(spec, course, ident)
+    stiffness, lo, hi = stiffness_band(estimate, course.covariance, coupling, observable, level, form)
     corrected = stiffness is not estimate.stiffness
     miss = _shape_miss(trial, signals.filtered, course, ident, observable)
     angle = (None if estimate.steps is None else
              angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=course.filtered.motion_hz,
                             beside=miss.columns if miss is not None and miss.significant else None))
     figures = trial_level_figures(course.filtered, estimate, course.coefficients, observable, level=level,
-                                  seed=seed, limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle)
+                                  seed=seed, limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle,
+                                  form=form)
     checks = check_analysis(course.filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=course.noise, coupling=coupling, corrected=corrected, angle_terms=angle,
                             torque_scale=_torque_scale(protocol, course.filtered.variant))

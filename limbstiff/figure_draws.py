@@ -3,8 +3,8 @@
 The figures (:mod:`limbstiff.trial_level`) are taken at the Kalman model's steps, whichever
 estimator ran; their intervals come from joint draws of the course: its posterior
 (:func:`~limbstiff.estimate.course_draws.course_deviations`), the model's coefficients drawn
-through the estimate's sensitivity to them, and the stiffness's change with the angle within the
-cycle. Pure numpy: no I/O.
+through the estimate's sensitivity to them, the stiffness's change with the angle within the
+cycle, and the alternatives to the chosen model (:class:`~limbstiff.band.ModelForm`). Pure numpy: no I/O.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 
+from .band import ModelForm
 from .coefficients import Coefficients
 from .estimate.angle_terms import AngleTerms
 from .estimate.course_draws import course_deviations
@@ -32,18 +33,17 @@ def figure_samples_of(filtered: Filtered, observable: np.ndarray) -> FigureSampl
 
 def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Coefficients | None,
                         observable: np.ndarray, *, limb, level: float, seed: int,
-                        angle: AngleTerms | None = None) -> TrialLevel:
+                        angle: AngleTerms | None = None, form: ModelForm | None = None) -> TrialLevel:
     """The trial-level figures over joint draws of the course at the Kalman model's steps.
 
     The draws are the course's posterior (:func:`course_deviations`) plus posterior draws of the
-    model's coefficients through the estimate's sensitivity, on the informed steps. With ``angle`` the course is the
-    stiffness with its change with the angle within the cycle: the part the smoothed course misses
-    (:meth:`AngleTerms.missed_course`) added, its coefficients drawn from their sandwich covariance.
+    model's coefficients through the estimate's sensitivity, on the informed steps. With ``angle``
+    the course is the stiffness with its change with the angle within the cycle (the part the
+    smoothed course misses, :meth:`AngleTerms.missed_course`), drawn from the terms' covariance.
 
     Parameters
     ----------
     filtered : Filtered
-        The trial's filtered signals.
     estimate : Estimate
         The estimator's output; its steps and sensitivity, when it has them, give the draws.
     coefficients : Coefficients or None
@@ -53,12 +53,12 @@ def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Co
         The samples informed by motion.
     limb : callable
         Maps a one-body stiffness (an array of any shape) to the limb's, N·m/rad (N/m).
-    level : float
-        Level of the intervals (0.9 for 90 %).
-    seed : int
-        Seed of the draws.
+    level, seed : float, int
+        Level of the intervals (0.9 for 90 %), seed of the draws.
     angle : AngleTerms, optional
         The stiffness's change with the angle within the cycle.
+    form : ModelForm, optional
+        Alternatives to the chosen model, each draw's drawn with its weight.
 
     Returns
     -------
@@ -81,6 +81,9 @@ def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Co
         coef = coefficients.draws[rng.integers(0, len(coefficients.draws), n_draws)]
         draws += (coef - coefficients.values) @ coefficients.rows_of(estimate.sensitivity)[:, samples.index]
         sources.append("mechanics")
+    if form is not None and sources:
+        draws += form.draws(rng, n_draws, samples.index)
+        sources.append("model form")
     if not sources:
         draws = np.full_like(draws, np.nan)           # no joint uncertainty: no interval claimed
     informed = samples.informed

@@ -27,18 +27,21 @@ def test_contract_bias_is_where_a_gaussian_band_falls_to_the_contract():
     assert contract_bias(0.8) == 0.0
 
 
-def _miss(wald: float, shift: float) -> ShapeMiss:
-    return ShapeMiss(wald=wald, dof=8, threshold=float(stats.chi2.isf(0.001, 8)), shift=shift, columns=np.zeros((8, 3)))
+def _miss(wald: float, shift: float, sd: float = 0.0) -> ShapeMiss:
+    return ShapeMiss(wald=wald, dof=8, threshold=float(stats.chi2.isf(0.001, 8)), shift=shift, shift_sd=sd,
+                     columns=np.zeros((8, 3)))
 
 
-def test_velocity_shape_check_needs_both_significance_and_a_shift_the_band_cannot_hold():
-    """Two-sided on the rule: significant and moving the stiffness by more than half the contract's
-    bias fails; significant with a small shift, or a large shift that is not significant, passes."""
+def test_velocity_shape_check_needs_significance_a_shift_the_band_cannot_hold_and_its_sign_known():
+    """Two-sided on the rule: significant, moving the stiffness by more than half the contract's
+    bias and by more than 1.96 of its standard errors fails; a small shift, a large one that is
+    not significant, or one within 1.96 of its standard errors passes."""
     limit = 0.5 * contract_bias(0.9)                     # share of the half-width
     kw = dict(stiffness=30.0, half_width=1.0, level=0.9)
-    assert not velocity_shape_check(_miss(500.0, 1.5 * limit), **kw).passed
+    assert not velocity_shape_check(_miss(500.0, 1.5 * limit, sd=0.4 * limit), **kw).passed
     assert velocity_shape_check(_miss(500.0, 0.5 * limit), **kw).passed
     assert velocity_shape_check(_miss(10.0, 5 * limit), **kw).passed
+    assert velocity_shape_check(_miss(500.0, 1.5 * limit, sd=limit), **kw).passed
     assert velocity_shape_check(None, **kw) is None
 
 
@@ -116,3 +119,50 @@ def test_velocity_shape_fires_on_a_gated_reflex_and_not_on_the_clean_trial(elbow
     assert not check.passed and gated.verdict != OK
     assert "may not hold" in check.message
     assert not any(reason.startswith(ANGLE_PROPERTY) for reason in gated.checks.reasons)
+
+
+def test_model_form_weights_and_mixture_draws():
+    """One alternative as likely as the chosen model holds half the weight; the band's spread is the
+    mixture's root mean square about the chosen course; the draws pick each model at its weight
+    (4000 seeded draws: within 4 binomial standard errors). An alternative 20 nats less likely weighs
+    e⁻²⁰ ≈ 2·10⁻⁹: below 10⁻⁶, no model form at all."""
+    from limbstiff.effects.model_form import model_form
+    change = np.array([0.0, 1.0, 2.0, 4.0])
+    form = model_form([0.0], [change])
+    assert form.weights == pytest.approx([0.5])
+    assert form.spread() == pytest.approx(np.sqrt(0.5) * change)
+    draws = form.draws(np.random.default_rng(5), 4000, np.array([1, 3]))
+    picked = np.mean(draws[:, 1] == 4.0)
+    assert set(np.unique(draws[:, 1])) <= {0.0, 4.0} and abs(picked - 0.5) < 4 * np.sqrt(0.25 / 4000)
+    two = model_form([np.log(3.0), 0.0], [change, 2 * change])   # weights 3/5 and 1/5
+    assert two.weights == pytest.approx([0.6, 0.2])
+    assert model_form([-20.0], [change]) is None and model_form([], []) is None
+
+
+@pytest.fixture(scope="module")
+def reflex_elbow():
+    from limbstiff.simulate import simulate
+    return simulate("elbow", seed=1, params={"duration": 12}, effect="reflex")
+
+
+def test_the_reflex_in_or_out_is_weighed_by_its_evidence(elbow, reflex_elbow, monkeypatch):
+    """Two-sided, on the model form the analysis builds (caught as it is made). With ``--effect
+    reflex`` on the clean elbow the reflex is not needed (its log-evidence gain −5.3 less ln 130
+    shapes: measured 10.2 nats for leaving it out): the reflex out holds nearly all the weight and the
+    trial-level figures draw the model form. On the elbow with the simulator's reflex the reflex out
+    lies beyond 100 nats (measured −117) and the runner-up shapes hold about 1 % between them (−5.1,
+    −5.4 nats): their spread adds under 5 % of the band's half-width (measured 2 %)."""
+    import limbstiff.analysis as pipeline
+    made = []
+    build = pipeline.model_form
+    monkeypatch.setattr(pipeline, "model_form", lambda logs, changes: made.append((list(logs), build(logs, changes)))
+                        or made[-1][1])
+    clean = pipeline.analyze(elbow, seed=7, effects=("reflex",))
+    logs, form = made[-1]
+    assert logs[0] > 5 and form.weights[0] > 0.99 and "model form" in clean.trial_level.sources
+    strong = pipeline.analyze(reflex_elbow, seed=1, effects=("reflex",))
+    logs, form = made[-1]
+    assert logs[0] < -100 and form.weights.sum() < 0.02
+    obs = strong.observable
+    half = np.median((strong.stiffness_hi - strong.stiffness_lo)[obs]) / 2
+    assert np.median(form.spread()[obs]) < 0.05 * half

@@ -21,9 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..statespace.linear import innovations, sandwich_covariance
+from ..statespace.linear import course_response, innovations, sandwich_covariance
 from ..statespace.noise import NoiseLevels
-from ..statespace.smoother import at_steps, kalman_smoother
 from ..statespace.steps import ModelSteps
 
 
@@ -113,7 +112,6 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
     """
     U, H = angle_regressors(steps)
     with_terms = steps.with_channels(U if beside is None else np.vstack([U, beside]))
-    slopes = with_terms.slopes[1:3]
     e, s = innovations(with_terms, noise)
     e = e / np.sqrt(s)
     x, eps = e[1:3].T, e[0]
@@ -128,10 +126,7 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
     if np.linalg.cond(sandwich) > MAX_CONDITION:
         return None
     # the smoother is linear in z: its course from z − β·U is its course from z less β times these
-    followed = np.vstack([at_steps(kalman_smoother(steps.increments, u, noise, step=steps.step,
-                                                   deflection=steps.deflection, initial_mean=(float(u[0]), float(k)),
-                                                   initial_cov=steps.initial_cov, loglik=False).mean[:, 1])
-                          for u, k in zip(U, slopes)])
+    followed = course_response(steps, U, noise)
     return AngleTerms(coefficients=beta, covariance=sandwich, wald=float(beta @ np.linalg.solve(sandwich, beta)),
                       missed=H - followed, index=steps.index)
 
