@@ -166,3 +166,20 @@ def test_the_reflex_in_or_out_is_weighed_by_its_evidence(elbow, reflex_elbow, mo
     obs = strong.observable
     half = np.median((strong.stiffness_hi - strong.stiffness_lo)[obs]) / 2
     assert np.median(form.spread()[obs]) < 0.05 * half
+
+
+def test_the_verdict_of_a_median_wholly_below_zero_is_unreliable():
+    """Two-sided, end to end: the paper's exponential spring (direct variant), its elastic torque
+    reversed, has a negative median stiffness whose interval lies wholly below zero — the
+    ``median_stiffness_sign`` check fails with its reason and the verdict is unreliable; the same
+    spring as recorded passes it."""
+    from limbstiff.analysis import analyze
+    from limbstiff.simulate import simulate
+    spring = simulate("paper-exp-spring", params={"duration": 5.0})
+    right = analyze(spring, seed=0)
+    assert right.checks["median_stiffness_sign"].passed and right.trial_level.median_stiffness.lo > 0
+    flipped = analyze(dataclasses.replace(spring, elastic_torque=-spring.elastic_torque), seed=0)
+    check = flipped.checks["median_stiffness_sign"]
+    assert flipped.trial_level.median_stiffness.hi < 0
+    assert not check.passed and flipped.verdict == UNRELIABLE
+    assert any("wholly below zero" in reason for reason in flipped.checks.reasons)
