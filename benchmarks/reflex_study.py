@@ -36,7 +36,12 @@ The full default study is 33 trials (gain 0 once, gains 2–10 × two signs, 3 s
 = 132 runs: modes 1–2 about 33 × 6 s = 200 s of CPU; the reflex modes are not timed (the
 keyword does not exist yet) — at 1–3 times modes 1–2 the whole study takes about 3.5–7 min
 with ``--jobs 2`` (plus ~10 s of least squares). ``--quick`` (1 seed, gains 0, 6, 10, 20 s)
-takes under a minute.
+takes under a minute and only prints.
+
+Issue 46's figures of the verdict are added per run (:mod:`trial_verdicts`): the course band's
+coverage of 30, whether the ``median_stiffness`` interval holds 30, the reasons and whether the
+stiffness was said to depend on the angle; summarised per mode. A run with ``--label before``
+keeps its summary (and its runs) in the JSON; later runs show it beside theirs.
 
 Writes section ``reflex-study`` of ``benchmarks/RESULTS.md`` and ``benchmarks/reflex_study.json``.
 """
