@@ -44,6 +44,9 @@ class AngleTerms:
         the course lacks. A stiffness walk that follows the angle already has the term (missed ≈ 0).
     index : ndarray of int, shape (m,)
         The sample of each step.
+    beside : bool
+        Fitted beside other torques the model lacks (:func:`fit_angle_terms`): a rival explanation
+        of the same residual was found.
     """
 
     coefficients: np.ndarray
@@ -51,6 +54,7 @@ class AngleTerms:
     wald: float
     missed: np.ndarray
     index: np.ndarray
+    beside: bool = False
 
     def missed_course(self) -> np.ndarray:
         """β̂·missed: what the course lacks at each step, N·m/rad (N/m), shape (m,)."""
@@ -128,7 +132,7 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
     # the smoother is linear in z: its course from z − β·U is its course from z less β times these
     followed = course_response(steps, U, noise)
     return AngleTerms(coefficients=beta, covariance=sandwich, wald=float(beta @ np.linalg.solve(sandwich, beta)),
-                      missed=H - followed, index=steps.index)
+                      missed=H - followed, index=steps.index, beside=beside is not None)
 
 
 #: Central share of the informed steps' deflections the stiffness against angle is drawn over
