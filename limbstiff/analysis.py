@@ -26,14 +26,15 @@ from .blas_threads import one_blas_thread
 from .checks import check_analysis
 from .checks.analysis import sign_hint
 from .checks.analysis import median_sign
-from .checks.model import MIN_STEPS, angle_terms_on
+from .checks.model import angle_terms_on
 from .checks.reflex import ReflexShift, reflex_check
-from .checks.shape import ShapeMiss, shape_miss, velocity_shape_check
+from .checks.shape import velocity_shape_check
 from .checks.units import implausible_inertia, plausible, units_checks
 from .checks.verdict import MOTION_MIN, ModelChecks
 from .coefficients import Coefficients
 from .curve_result import curve_analysis
-from .effects.in_model import ShapeProfile, probe_delta, reflex_probe, reflex_shift, velocity_shapes
+from .effects.in_model import (ShapeProfile, probe_delta, reflex_probe, reflex_shift, rival_columns,
+                               velocity_shape_miss)
 from .effects.model_form import effects_form, model_form
 from .errors import TrialError
 from .estimate import estimators
@@ -206,25 +207,6 @@ def _model_form(spec: ModelSpecification, course: Course, ident: Identification 
     return model_form(logs, changes)
 
 
-def _shape_miss(trial: Trial, filtered: Filtered, course: Course, ident: Identification | None,
-                observable: np.ndarray) -> ShapeMiss | None:
-    """Torques that follow the velocity through a threshold (:func:`velocity_shapes`, from the
-    analysis's ``filtered`` signals before any effect is taken off), fitted beside the Kalman model
-    with m and b when they are identified (:func:`shape_miss`); None for the direct variant, the
-    observers, or too few steps."""
-    steps = course.estimate.steps
-    if steps is None or filtered.variant != "external" or len(steps.index) < MIN_STEPS:
-        return None
-    f = course.filtered
-    nuisance = (None if ident is None or ident.given else
-                np.vstack([f.acceleration[steps.index], f.velocity[steps.index]]))
-    try:
-        return shape_miss(steps, course.estimate.fit.noise, velocity_shapes(trial, filtered)[:, steps.index],
-                          nuisance=nuisance, informed=observable[steps.index], motion_frequency=f.motion_hz)
-    except (np.linalg.LinAlgError, ValueError, FloatingPointError):
-        return None             # a check that cannot be computed is skipped, the analysis kept
-
-
 def _informed(course: Course, derived: DerivedSettings, trial: Trial, protocol: Protocol) -> np.ndarray:
     """The samples the motion informs, and (a posterior variance: the observers' is a spread of
     ratios) where the course's band is informative."""
@@ -246,10 +228,12 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
     form = _model_form(spec, course, ident)
     stiffness, lo, hi = stiffness_band(estimate, course.covariance, coupling, observable, level, form)
     corrected = stiffness is not estimate.stiffness
-    miss = _shape_miss(trial, signals.filtered, course, ident, observable)
+    miss = None if estimate.steps is None else velocity_shape_miss(
+        trial, signals.filtered, estimate.steps, estimate.fit.noise, observable=observable,
+        identified=ident is not None and not ident.given)
     angle = (None if estimate.steps is None else
              angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=course.filtered.motion_hz,
-                            beside=miss.columns if miss is not None and miss.significant else None))
+                            beside=rival_columns(miss)))
     figures = trial_level_figures(course.filtered, estimate, course.coefficients, observable, level=level,
                                   seed=seed, limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle,
                                   form=form)

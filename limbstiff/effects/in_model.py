@@ -23,7 +23,9 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..checks.model import MIN_STEPS
 from ..checks.reflex import MechanicsMove, ReflexShift
+from ..checks.shape import ShapeMiss, shape_miss
 from ..errors import LimbstiffError, TrialError
 from ..filtered import Filtered
 from ..mechanics.effect_terms import EffectTerms, without_effects
@@ -31,6 +33,7 @@ from ..mechanics.identification import Identification, mechanics_problem
 from ..mechanics.likelihood import MechanicsProblem, kalman_mechanics, robust_covariance
 from ..protocol import Protocol
 from ..statespace.noise import NoiseLevels
+from ..statespace.steps import ModelSteps
 from ..trial import Trial
 from ..unmodelled import delay_signal
 from .candidates import ACTIVATION_HZ, activation
@@ -373,3 +376,24 @@ def velocity_shapes(trial: Trial, filtered: Filtered) -> np.ndarray:
             for s in (1.0, -1.0):
                 rows.append(activation(s * np.maximum(s * late - threshold, 0.0), ch.fs, SHAPE_ACTIVATION_HZ))
     return filtered_torque(ch, np.vstack(rows))
+
+
+def velocity_shape_miss(trial: Trial, filtered: Filtered, steps: ModelSteps, noise: NoiseLevels, *,
+                        identified: bool, observable: np.ndarray) -> ShapeMiss | None:
+    """:func:`velocity_shapes` of ``trial`` and its ``filtered`` signals fitted beside the Kalman
+    model at ``steps`` and ``noise`` (:func:`~limbstiff.checks.shape.shape_miss`), with ÿ and ẏ
+    when m and b are ``identified``; the analysis's and the diagnosis's one computation. None for
+    the direct variant, too few steps, or a fit that cannot be made."""
+    if filtered.variant != "external" or len(steps.index) < MIN_STEPS:
+        return None
+    nuisance = np.vstack([filtered.acceleration[steps.index], filtered.velocity[steps.index]]) if identified else None
+    try:
+        return shape_miss(steps, noise, velocity_shapes(trial, filtered)[:, steps.index], nuisance=nuisance,
+                          informed=observable[steps.index], motion_frequency=filtered.motion_hz)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+        return None             # a check that cannot be computed is skipped, the analysis kept
+
+
+def rival_columns(miss: ShapeMiss | None) -> np.ndarray | None:
+    """The torques the angle terms are fitted beside: :func:`velocity_shape_miss`'s when significant."""
+    return miss.columns if miss is not None and miss.significant else None
