@@ -97,8 +97,9 @@ def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Co
 def told_angle(angle: AngleTerms | None) -> AngleTerms | None:
     """The angle terms when the data tell their change from noise (their Wald statistic beyond
     :data:`~limbstiff.checks.verdict.ANGLE_WALD`, as the ``angle_dependence`` check reads them), None
-    otherwise: a change the check calls noise is not added to the figures (on a constant stiffness
-    it shifted the median by up to 2 % with an interval that missed the truth: issue 46)."""
+    otherwise: a change the check calls noise is not added to the figures (on the constant stiffness
+    of ``benchmarks/reflex_study.py``'s clean trials it shifted the median's interval off the truth:
+    issue 46)."""
     return angle if angle is not None and angle.wald > ANGLE_WALD else None
 
 
