@@ -36,7 +36,12 @@ The full default study is 33 trials (gain 0 once, gains 2–10 × two signs, 3 s
 = 132 runs: modes 1–2 about 33 × 6 s = 200 s of CPU; the reflex modes are not timed (the
 keyword does not exist yet) — at 1–3 times modes 1–2 the whole study takes about 3.5–7 min
 with ``--jobs 2`` (plus ~10 s of least squares). ``--quick`` (1 seed, gains 0, 6, 10, 20 s)
-takes under a minute.
+takes under a minute and only prints.
+
+Issue 46's figures of the verdict are added per run (:mod:`trial_verdicts`): the course band's
+coverage of 30, whether the ``median_stiffness`` interval holds 30, the reasons and whether the
+stiffness was said to depend on the angle; summarised per mode. A run with ``--label before``
+keeps its summary (and its runs) in the JSON; later runs show it beside theirs.
 
 Writes section ``reflex-study`` of ``benchmarks/RESULTS.md`` and ``benchmarks/reflex_study.json``.
 """
@@ -62,6 +67,7 @@ from benchmarks.generators.gated_reflex import (  # noqa: E402  (the generator, 
     AMPLITUDE, B_TRUE, CORNER_HZ, DELAY_S, FS, I_TRUE, K_TRUE, OMEGA, ORDER, SIGNS, SNR_DB, SWITCH_S, THRESHOLD,
     ZETA)
 from benchmarks.generators.gated_reflex import generate as _generate  # noqa: E402
+from trial_verdicts import summarise, summary_table, verdict_fields  # noqa: E402
 
 MODES = ("identified", "given", "identified+reflex", "given+reflex")
 #: Guarín & Kearney's least-squares K (published sign), by reflex gain.
@@ -125,7 +131,7 @@ def _fill(row: dict, result) -> None:
                inertia=_interval(m), damping=_interval(b),
                inertia_error=None if m is None else abs(m.median - I_TRUE) / I_TRUE,
                damping_error=None if b is None else abs(b.median - B_TRUE) / B_TRUE,
-               effects=_effects(result))
+               effects=_effects(result), **verdict_fields(result, K_TRUE))
 
 
 def run_one(job: dict) -> dict:
@@ -307,7 +313,32 @@ def run(gains, seeds: int, jobs: int, duration: float, direction: int) -> tuple[
     return rows, least_squares_rows(cases, seeds, duration, direction), wall, available
 
 
-def report(rows, ls_rows, wall: float, available: bool, args) -> str:
+#: The groups of runs issue 46's figures are given for: each mode, and m and b identified and given.
+SUMMARY_GROUPS = {"identified": ("identified",), "identified+reflex": ("identified+reflex",),
+                  "given": ("given",), "given+reflex": ("given+reflex",),
+                  "all with --effect reflex": ("identified+reflex", "given+reflex"),
+                  "all without": ("identified", "given")}
+
+
+def summaries(rows) -> dict:
+    """Issue 46's figures (:func:`trial_verdicts.summarise`) of each of :data:`SUMMARY_GROUPS`."""
+    return {name: summarise([r for r in rows if r["mode"] in modes]) for name, modes in SUMMARY_GROUPS.items()}
+
+
+def verdict_section(current: dict, stored: dict, label: str) -> list[str]:
+    """The table of issue 46's figures: the stored labels (the code before a change) and this run's."""
+    labels = {k: v for k, v in stored.items() if k != label}
+    labels[label] = current
+    return ["### Trial verdicts: does `ok` mean the band holds 30? (issue 46)", "",
+            "Course coverage = share of the informed samples after 2 s whose band holds 30, pooled over the runs "
+            "said `ok` (the samples are correlated: its Wilson interval is too narrow); per trial: the median "
+            "(min) of each `ok` run's coverage. Median interval = `trial_level.median_stiffness` at 90 %. "
+            "The last column counts the runs whose reasons say the joint's stiffness depends on its angle "
+            "(the gated reflex must not), and those whose angle check failed with any reason.", "",
+            *summary_table(labels)]
+
+
+def report(rows, ls_rows, wall: float, available: bool, args, stored: dict | None = None) -> str:
     """The ``reflex-study`` section of RESULTS.md."""
     cpu = [r["cpu_s"] for r in rows if r["verdict"] != "not available"]
     lines = ["## Stretch reflexes on a position-controlled joint (`benchmarks/reflex_study.py`)", "",
@@ -324,7 +355,7 @@ def report(rows, ls_rows, wall: float, available: bool, args) -> str:
              "2 s of |σ̂ − 30|/30); median K = `informed_stiffness()`; m and b errors = |median − truth|/truth, "
              "medians over seeds.", "", *criteria(rows), "", *study_table(rows), "",
              "### Plain least squares on the generator's exact kinematics (a check of the generator)", "",
-             *least_squares_table(ls_rows)]
+             *least_squares_table(ls_rows), "", *verdict_section(summaries(rows), stored or {}, args.label)]
     return "\n".join(lines)
 
 
@@ -336,6 +367,8 @@ def main(argv=None) -> str:
     parser.add_argument("--gains", help="reflex gains, N·m·s/rad (default 0,2,4,6,8,10)")
     parser.add_argument("--duration", type=float, help="trial length, s (default 60)")
     parser.add_argument("--direction", type=int, choices=(1, -1), default=1)
+    parser.add_argument("--label", default="after",
+                        help="name of this run's figures in the JSON's `verdicts` (a 'before' is kept for later runs)")
     parser.add_argument("--quick", action="store_true",
                         help="smoke test: 1 seed, gains 0,6,10, 20 s (unless given explicitly)")
     args = parser.parse_args(argv)
@@ -345,10 +378,18 @@ def main(argv=None) -> str:
             setattr(args, name, value)
     gains = [float(g) for g in args.gains.split(",")]
     rows, ls_rows, wall, available = run(gains, args.seeds, args.jobs, args.duration, args.direction)
-    text = report(rows, ls_rows, wall, available, args)
+    path = HERE / "reflex_study.json"
+    old = json.loads(path.read_text(encoding="utf-8")) if path.exists() else {}
+    stored = {k: v for k, v in old.get("verdicts", {}).items() if k == "before" and not args.quick}
+    text = report(rows, ls_rows, wall, available, args, stored)
+    verdicts = dict(stored, **{args.label: summaries(rows)})
+    if args.quick:
+        print(text)
+        return text
     update_section("reflex-study", text)
-    (HERE / "reflex_study.json").write_text(json.dumps(
-        dict(settings=vars(args), effects_available=available, wall_s=wall, runs=rows, least_squares=ls_rows),
+    path.write_text(json.dumps(
+        dict(settings=vars(args), effects_available=available, wall_s=wall, runs=rows, least_squares=ls_rows,
+             verdicts=verdicts, before_runs=old.get("before_runs", rows if args.label == "before" else None)),
         indent=1, default=float), encoding="utf-8")
     return text
 

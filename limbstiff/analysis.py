@@ -21,20 +21,25 @@ from typing import Sequence
 import numpy as np
 
 from . import bandwidth
-from .band import half_width, stiffness_band
+from .band import ModelForm, half_width, stiffness_band
 from .blas_threads import one_blas_thread
 from .checks import check_analysis
 from .checks.analysis import sign_hint
+from .checks.analysis import median_sign
 from .checks.model import angle_terms_on
 from .checks.reflex import ReflexShift, reflex_check
+from .checks.shape import velocity_shape_check
 from .checks.units import implausible_inertia, plausible, units_checks
 from .checks.verdict import MOTION_MIN, ModelChecks
 from .coefficients import Coefficients
 from .curve_result import curve_analysis
-from .effects.in_model import ShapeProfile, reflex_probe, reflex_shift
+from .effects.in_model import (ShapeProfile, probe_delta, reflex_probe, reflex_shift, rival_columns,
+                               velocity_shape_miss)
+from .effects.model_form import effects_form, model_form
 from .errors import TrialError
 from .estimate import estimators
 from .estimate.informed import band_informed
+from .estimate.observer import informed_samples
 from .figure_draws import trial_level_figures
 from .files import read_trial
 from .filtered import Filtered
@@ -182,6 +187,26 @@ def _reflex_shift(course: Course, ident: Identification | None, observable: np.n
                         informed=observable)
 
 
+def _model_form(spec: ModelSpecification, course: Course, ident: Identification | None) -> ModelForm | None:
+    """The alternatives to the chosen model of comparable evidence (:mod:`limbstiff.effects.model_form`):
+    the effects' other shapes and each effect left out, or the probed reflex put in; None without
+    the Kalman estimator's steps and sensitivity."""
+    estimate, coef = course.estimate, course.coefficients
+    if estimate.steps is None or estimate.sensitivity is None or coef is None:
+        return None
+    logs, changes = [], []
+    if spec.effects is not None:
+        at = coef.positions(spec.effects.names)
+        logs, changes = effects_form(spec.effects, coef.values[at], estimate.sensitivity[at], steps=estimate.steps,
+                                     noise=estimate.fit.noise)
+    probe = course.probe
+    if probe is not None and len(estimate.sensitivity) > len(coef.names):
+        rows = estimate.sensitivity[[*coef.positions(("inertia", "damping")), len(coef.names)]]
+        logs.append(probe.loglik_gain - float(np.log(max(probe.shapes_tried, 1))))
+        changes.append(probe_delta(probe, None if ident.given else (ident.inertia, ident.damping)) @ rows)
+    return model_form(logs, changes)
+
+
 def _informed(course: Course, derived: DerivedSettings, trial: Trial, protocol: Protocol) -> np.ndarray:
     """The samples the motion informs, and (a posterior variance: the observers' is a spread of
     ratios) where the course's band is informative."""
@@ -200,19 +225,29 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
     """The band, the figures and the checks of the course, as the result."""
     estimate, level, coupling = course.estimate, protocol.ci_level, signals.coupling
     observable = _informed(course, derived, trial, protocol)
-    stiffness, lo, hi = stiffness_band(estimate, course.covariance, coupling, observable, level)
+    form = _model_form(spec, course, ident)
+    stiffness, lo, hi = stiffness_band(estimate, course.covariance, coupling, observable, level, form)
     corrected = stiffness is not estimate.stiffness
+    miss = None if estimate.steps is None else velocity_shape_miss(
+        trial, signals.filtered, estimate.steps, estimate.fit.noise, observable=observable,
+        identified=ident is not None and not ident.given)
     angle = (None if estimate.steps is None else
-             angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=course.filtered.motion_hz))
+             angle_terms_on(estimate.steps, estimate.fit.noise, motion_frequency=course.filtered.motion_hz,
+                            beside=rival_columns(miss)))
     figures = trial_level_figures(course.filtered, estimate, course.coefficients, observable, level=level,
-                                  seed=seed, limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle)
+                                  seed=seed, limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle,
+                                  form=form)
     checks = check_analysis(course.filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=course.noise, coupling=coupling, corrected=corrected, angle_terms=angle,
                             torque_scale=_torque_scale(protocol, course.filtered.variant))
     reflex = reflex_check(_reflex_shift(course, ident, observable, level))
     curve = spec.curve and curve_analysis(prepared, spec.curve, estimate, ident, observable=observable,
                                           stiffness=stiffness, level=level, seed=seed)
-    more = ((reflex,) if reflex is not None else ()) + (curve.checks if curve else ())
+    informed = informed_samples(observable)
+    shape = velocity_shape_check(miss, stiffness=float(np.median(stiffness[informed])),
+                                 half_width=float(np.median((hi - lo)[informed])) / 2, level=level)
+    more = tuple(c for c in (reflex, shape, median_sign(figures.median_stiffness)) if c is not None)
+    more += curve.checks if curve else ()
     checks = units_checks(ModelChecks(checks.checks + more), implausible_inertia(trial, protocol, ident, found))
     return StiffnessResult(
         trial=trial, variant=signals.filtered.variant, estimator=protocol.estimator, stiffness=stiffness,

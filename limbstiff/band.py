@@ -2,11 +2,14 @@
 
 The band carries the estimator's own variance and the uncertainty of the model's linear
 coefficients (m, b, the effects' amplitudes, a curve's weights) through the estimate's
-sensitivity to them; with a coupling the one-body course and its band are those of the springs
-in series, which :meth:`CouplingFit.limb_stiffness` undoes. Pure numpy: no I/O.
+sensitivity to them, and the spread of the alternatives to the chosen model of comparable
+evidence (:class:`ModelForm`); with a coupling the one-body course and its band are those of the
+springs in series, which :meth:`CouplingFit.limb_stiffness` undoes. Pure numpy: no I/O.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
@@ -22,11 +25,43 @@ def half_width(estimate: Estimate, covariance: np.ndarray | None, level: float) 
     return float(stats.norm.ppf(0.5 + level / 2)) * np.sqrt(np.maximum(estimate.variance_with(covariance), 0.0))
 
 
+@dataclass(frozen=True)
+class ModelForm:
+    """Alternatives to the chosen model (:mod:`limbstiff.effects.model_form`).
+
+    Parameters
+    ----------
+    weights : ndarray, shape (j,)
+        Each alternative's posterior weight; the chosen model holds 1 − their sum.
+    changes : ndarray, shape (j, n)
+        Each one's course less the chosen one's on the samples, N·m/rad (N/m).
+    """
+
+    weights: np.ndarray
+    changes: np.ndarray
+
+    def spread(self) -> np.ndarray:
+        """Root mean square over the models of the course less the chosen one's, shape (n,), N·m/rad
+        (N/m): the mixture's spread about the chosen course (its own offset included)."""
+        return np.sqrt(self.weights @ self.changes ** 2)
+
+    def draws(self, rng: np.random.Generator, n_draws: int, index: np.ndarray) -> np.ndarray:
+        """Each draw's model (the chosen one with its weight) as its change at the samples
+        ``index`` (c,), shape (n_draws, c): the mixture of the models' draws."""
+        p = np.concatenate([[max(1.0 - float(self.weights.sum()), 0.0)], self.weights])
+        rows = np.vstack([np.zeros(len(index)), self.changes[:, index]])
+        return rows[rng.choice(len(p), size=n_draws, p=p / p.sum())]
+
+
 def stiffness_band(estimate: Estimate, covariance: np.ndarray | None, coupling: CouplingFit | None,
-                   informed: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The stiffness and its ``level`` band (:func:`half_width`), the limb's when a coupling was
-    found (:func:`limb_stiffness`), unbounded where uninformed; each shape (n,), N·m/rad (N/m)."""
+                   informed: np.ndarray, level: float,
+                   form: ModelForm | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The stiffness and its ``level`` band (:func:`half_width`, with the alternatives' spread
+    ``form`` added in quadrature at the level's quantile), the limb's when a coupling was found
+    (:func:`limb_stiffness`), unbounded where uninformed; each shape (n,), N·m/rad (N/m)."""
     half = half_width(estimate, covariance, level)
+    if form is not None:
+        half = np.hypot(half, float(stats.norm.ppf(0.5 + level / 2)) * form.spread())
     stiffness, lo, hi = limb_stiffness(coupling, estimate.stiffness, estimate.stiffness - half,
                                        estimate.stiffness + half)
     lo, hi = uninformed_band(lo, hi, informed)

@@ -3,8 +3,8 @@
 The figures (:mod:`limbstiff.trial_level`) are taken at the Kalman model's steps, whichever
 estimator ran; their intervals come from joint draws of the course: its posterior
 (:func:`~limbstiff.estimate.course_draws.course_deviations`), the model's coefficients drawn
-through the estimate's sensitivity to them, and the stiffness's change with the angle within the
-cycle. Pure numpy: no I/O.
+through the estimate's sensitivity to them, the stiffness's change with the angle within the
+cycle, and the alternatives to the chosen model (:class:`~limbstiff.band.ModelForm`). Pure numpy: no I/O.
 """
 
 from __future__ import annotations
@@ -13,6 +13,8 @@ import dataclasses
 
 import numpy as np
 
+from .band import ModelForm
+from .checks.verdict import ANGLE_WALD
 from .coefficients import Coefficients
 from .estimate.angle_terms import AngleTerms
 from .estimate.course_draws import course_deviations
@@ -32,18 +34,16 @@ def figure_samples_of(filtered: Filtered, observable: np.ndarray) -> FigureSampl
 
 def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Coefficients | None,
                         observable: np.ndarray, *, limb, level: float, seed: int,
-                        angle: AngleTerms | None = None) -> TrialLevel:
+                        angle: AngleTerms | None = None, form: ModelForm | None = None) -> TrialLevel:
     """The trial-level figures over joint draws of the course at the Kalman model's steps.
 
     The draws are the course's posterior (:func:`course_deviations`) plus posterior draws of the
-    model's coefficients through the estimate's sensitivity, on the informed steps. With ``angle`` the course is the
-    stiffness with its change with the angle within the cycle: the part the smoothed course misses
-    (:meth:`AngleTerms.missed_course`) added, its coefficients drawn from their sandwich covariance.
+    model's coefficients through the estimate's sensitivity, on the informed steps; with ``angle``
+    (:func:`told_angle`) the stiffness's change with the angle within the cycle, drawn too.
 
     Parameters
     ----------
     filtered : Filtered
-        The trial's filtered signals.
     estimate : Estimate
         The estimator's output; its steps and sensitivity, when it has them, give the draws.
     coefficients : Coefficients or None
@@ -53,18 +53,19 @@ def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Co
         The samples informed by motion.
     limb : callable
         Maps a one-body stiffness (an array of any shape) to the limb's, N·m/rad (N/m).
-    level : float
-        Level of the intervals (0.9 for 90 %).
-    seed : int
-        Seed of the draws.
+    level, seed : float, int
+        Level of the intervals (0.9 for 90 %), seed of the draws.
     angle : AngleTerms, optional
         The stiffness's change with the angle within the cycle.
+    form : ModelForm, optional
+        Alternatives to the chosen model, each draw's drawn with its weight.
 
     Returns
     -------
     TrialLevel
         Its intervals are NaN when there is nothing to draw (no joint uncertainty).
     """
+    angle = told_angle(angle)
     samples, base = figure_course(filtered, estimate, observable, angle=angle)
     rng = np.random.default_rng([seed, 14])
     n_draws = course_draws_for(len(samples.index) if estimate.steps is None else len(estimate.steps.index))
@@ -81,6 +82,9 @@ def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Co
         coef = coefficients.draws[rng.integers(0, len(coefficients.draws), n_draws)]
         draws += (coef - coefficients.values) @ coefficients.rows_of(estimate.sensitivity)[:, samples.index]
         sources.append("mechanics")
+    if form is not None and sources:
+        draws += form.draws(rng, n_draws, samples.index)
+        sources.append("model form")
     if not sources:
         draws = np.full_like(draws, np.nan)           # no joint uncertainty: no interval claimed
     informed = samples.informed
@@ -90,11 +94,21 @@ def trial_level_figures(filtered: Filtered, estimate: Estimate, coefficients: Co
                                course=course, index=samples.index, informed=informed)
 
 
+def told_angle(angle: AngleTerms | None) -> AngleTerms | None:
+    """The angle terms when the data tell their change from noise (their Wald statistic beyond
+    :data:`~limbstiff.checks.verdict.ANGLE_WALD`, as the ``angle_dependence`` check reads them), None
+    otherwise: a change the check calls noise is not added to the figures (on the constant stiffness
+    of ``benchmarks/reflex_study.py``'s clean trials it shifted the median's interval off the truth:
+    issue 46)."""
+    return angle if angle is not None and angle.wald > ANGLE_WALD else None
+
+
 def figure_course(filtered: Filtered, estimate: Estimate, observable: np.ndarray, *,
                   angle: AngleTerms | None = None) -> tuple[FigureSamples, np.ndarray]:
     """The one-body course the trial-level figures are taken over: the estimate at the figure's
     samples (:func:`figure_samples_of`), with the stiffness's change with the angle within the cycle
-    that the smoothed course misses (:meth:`AngleTerms.missed_course`) when ``angle`` is given.
+    that the smoothed course misses (:meth:`AngleTerms.missed_course`) when ``angle`` is given and
+    :func:`told_angle`.
     The analysis's median stiffness is the median of its limb's value over the informed samples;
     the diagnosis's stiffness with an effect removed is taken the same way.
 
@@ -105,6 +119,7 @@ def figure_course(filtered: Filtered, estimate: Estimate, observable: np.ndarray
     """
     samples = figure_samples_of(filtered, observable)
     base = estimate.stiffness[samples.index]
+    angle = told_angle(angle)
     if angle is not None:
         base = base + angle.coefficients @ angle.missed[:, samples.columns]
     return samples, base

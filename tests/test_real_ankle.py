@@ -60,8 +60,12 @@ def test_trials_the_model_fits_pass_every_check_but_the_angle_dependence(results
     # angle within the perturbation (the angle_dependence check, below)
     # z_df also has the reflex SOURCE.md describes, which moves its stiffness by more than its band
     # (test_a_reflex_in_the_model_moves_z_df_towards_source below)
+    # issue 46: z_df2's residual also holds a torque following the velocity through a threshold (the
+    # reflex SOURCE.md describes), which moves its stiffness beyond what its band holds: velocity_shape
     failed = {c.name for c in results[name].checks.failed}
-    assert failed <= {"angle_dependence"} | ({"reflex"} if name == "z_df" else set()), results[name].checks.reasons
+    allowed = {"angle_dependence"} | ({"reflex"} if name == "z_df" else set()) | (
+        {"velocity_shape"} if name == "z_df2" else set())
+    assert failed <= allowed, results[name].checks.reasons
     assert results[name].verdict == ("caution" if failed else "ok")
 
 
@@ -79,17 +83,19 @@ def test_a_reflex_in_the_model_moves_z_df_towards_source(results):
     # analysis done with the reflex in the model: within 3 points (its shape, noise levels and m, b
     # are fitted again there)
     assert after / before - 1 == pytest.approx(-check.value, abs=0.03)
-    # with the reflex in the model only the change with the angle is left to say
-    assert {c.name for c in fitted.checks.failed} <= {"angle_dependence"}
+    # with the reflex in the model only the change with the angle is left to say, and (issue 46) the
+    # part of the reflex the library's shape lacks (a threshold: velocity_shape)
+    assert {c.name for c in fitted.checks.failed} <= {"angle_dependence", "velocity_shape"}
 
 
-def test_the_angle_dependence_of_z_df_is_flagged_and_z_df3_is_not(results):
-    # measured: z_df's stiffness changes by ±11 % (rms) within the perturbation, lower at its
-    # extremes than at its centre (Wald 34, 4.3 band half-widths: muscle yielding beyond its
-    # short-range stiffness, or the reflex answering stretch one way); z_df3 shows none (Wald 1.0,
-    # 0.1 half-widths)
-    assert not results["z_df"].checks["angle_dependence"].passed
-    assert results["z_df"].checks["angle_dependence"].value > 2.0
+def test_the_angle_dependence_of_z_df_is_within_its_band_and_z_df3_shows_none(results):
+    # measured before issue 46: z_df's stiffness changes by ±11 % (rms) within the perturbation (Wald
+    # 34, 4.3 band half-widths). Since issue 46 its band carries the reflex in or out (the probe's
+    # reflex weighs nearly 1: ±18 % instead of ±2.7 %) and the terms are fitted beside the
+    # velocity-driven torques: the change, 0.63 half-widths, is within the band and not flagged;
+    # z_df3 shows none (Wald 1.0, 0.1 half-widths)
+    assert results["z_df"].checks["angle_dependence"].passed
+    assert 0.3 < results["z_df"].checks["angle_dependence"].value < 1.0
     assert results["z_df3"].checks["angle_dependence"].passed
     assert results["z_df3"].verdict == "ok"
 
@@ -109,24 +115,16 @@ def test_no_coupling_is_claimed_on_the_real_trials(results, name):
     assert not results[name].coupling.found
 
 
-def test_the_angle_dependence_of_z_df_is_said_as_the_joints_property(results):
-    # issue 34: z_df's stiffness follows the angle within the perturbation, well determined (its rms
-    # change ±11 %, to ±22 % of itself: ANGLE_DETERMINED_MAX is a third): the check says it is the
-    # joint's, not a misfit, and still flags that the course's band, an average over the cycle, does
-    # not hold the stiffness at the cycle's extremes (3.9 half-widths)
-    from limbstiff.digest import ANGLE_PROPERTY, ANGLE_VERDICT, verdict_line
+def test_no_angle_property_is_claimed_where_a_velocity_driven_torque_is_a_rival(results):
+    # issue 34 said z_df's and z_df2's change with the angle is the joint's property. Issue 46: both
+    # residuals also hold a torque following the velocity through a threshold (their reflex), which
+    # follows the angle's phase as well, so the change is no longer claimed as the joint's (the
+    # gated reflex of benchmarks/reflex_study.py, whose stiffness is constant, was claimed so too)
+    from limbstiff.digest import ANGLE_PROPERTY
 
     for name in ("z_df", "z_df2"):
-        check = results[name].checks["angle_dependence"]
-        assert not check.passed and check.severity == "caution"
-        assert check.message.startswith(ANGLE_PROPERTY + ": it changes by about ±")
-        assert "a property of the joint" in check.message and "not a misfit" in check.message
-        assert "against the angle (page 3)" in check.message and "average over the cycle" in check.message
-        assert "reflex" not in check.message and "yielding at larger stretches" not in check.message
-    assert "±11 %" in results["z_df"].checks["angle_dependence"].message
-    # page 1 says what the caution is when the angle is its only reason (z_df2)
-    assert {c.name for c in results["z_df2"].checks.failed} == {"angle_dependence"}
-    assert verdict_line(results["z_df2"])[:2] == ("CAUTION", ANGLE_VERDICT)
+        assert not any(r.startswith(ANGLE_PROPERTY) for r in results[name].checks.reasons)
+    assert "velocity_shape" in {c.name for c in results["z_df2"].checks.failed}
     # z_df3 shows no change with the angle: the check passes and lowers nothing
     assert results["z_df3"].checks["angle_dependence"].passed
     assert "angle_dependence" not in {c.name for c in results["z_df3"].checks.failed}
@@ -155,14 +153,14 @@ def test_z_df_stiffness_against_angle(results):
     assert np.all(c.lo < c.stiffness) and np.all(c.stiffness < c.hi)
     informed = informed_samples(result.observable)
     band_half = np.median((result.stiffness_hi - result.stiffness_lo)[informed]) / 2
+    # page 3 refits the terms alone; the check's are fitted beside the velocity-driven torques
+    # (issue 46): measured 0.613 against 0.626 half-widths
     assert figure.terms.variation(informed) / band_half == pytest.approx(
-        result.checks["angle_dependence"].value, rel=1e-6)
+        result.checks["angle_dependence"].value, rel=0.05)
     # the smoothed course behind it is the result's, at informed steps
     assert np.median(figure.stiffness) == pytest.approx(np.median(result.stiffness[informed]), rel=0.01)
-    (label, text), = angle_rows(result, figure)
-    assert label == "Stiffness vs angle"
-    assert text.startswith("the stiffness is highest, 121 N·m/rad at") and "page 3" in text
-    assert "the median summarises a stiffness that varies with the angle" in text
+    # page 1 has no row on it since issue 46: the change lies within z_df's band (the reflex in or out)
+    assert angle_rows(result, figure) == []
 
 
 @pytest.mark.parametrize("name", list(REFERENCE))

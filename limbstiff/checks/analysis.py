@@ -178,7 +178,9 @@ def _angle_dependence(found: AngleTerms | None, stiffness, lo, hi, observable) -
     With two terms the stiffness against the angle is a parabola, smooth by construction; where
     its change is well determined (:data:`ANGLE_DETERMINED_MAX`) the message says it as what it
     is, the joint's stiffness depending on its angle (``digest.ANGLE_PROPERTY``: the verdict's
-    words follow it), not a misfit; otherwise it lists what can cause it."""
+    words follow it), not a misfit — unless the terms were fitted beside a velocity-driven torque
+    the model lacks (:attr:`AngleTerms.beside`, issue 46): a rival explanation, so no property is
+    claimed; otherwise it lists what can cause it."""
     from ..digest import ANGLE_PROPERTY
 
     if found is None:
@@ -206,6 +208,13 @@ def _angle_dependence(found: AngleTerms | None, stiffness, lo, hi, observable) -
     tail = (f"the course over time is its average over the cycle, so its band does not hold the stiffness at the "
             f"cycle's extremes (the change is {ratio:.1f} times the band's half-width); the median stiffness and "
             "the other trial-level figures include the change")
+    if found.beside:
+        return Check("angle_dependence", finite_or_none(ratio), ANGLE_VARIATION_MAX, False,
+                     f"the stiffness appears to change with the angle within each motion cycle, by about "
+                     f"±{percent:.0f} %, but the residual also holds a torque following the velocity through a "
+                     "threshold or a shape the model lacks (see the velocity_shape check), which follows the angle's "
+                     f"phase too: the change need not be the joint's (a reflex gated by velocity does this); {tail}",
+                     CAUTION)
     if relative <= ANGLE_DETERMINED_MAX:
         return Check("angle_dependence", finite_or_none(ratio), ANGLE_VARIATION_MAX, False,
                      f"{ANGLE_PROPERTY}: it changes by about ±{percent:.0f} % within each motion cycle, a property "
@@ -216,6 +225,21 @@ def _angle_dependence(found: AngleTerms | None, stiffness, lo, hi, observable) -
                  f"only to ±{100 * relative:.0f} % of itself (a spring stiffening with the deflection, muscle "
                  "yielding at larger stretches, or torque answering stretch in one direction only, as a reflex "
                  f"does): {tail}", CAUTION)
+
+
+def median_sign(median) -> Check:
+    """``unreliable`` when the median stiffness's interval (an :class:`~limbstiff.interval.Interval`,
+    N·m/rad) lies wholly below zero: a limb or a spring is not negatively stiff, the model does not
+    fit whatever the course's share of negative samples. Passes when the interval is not finite."""
+    hi = finite_or_none(median.hi)
+    if hi is None or hi >= 0:
+        return Check("median_stiffness_sign", hi, 0.0, True,
+                     "the median stiffness's interval reaches above zero" if hi is not None else
+                     "the median stiffness has no interval to judge")
+    return Check("median_stiffness_sign", hi, 0.0, False,
+                 f"the median stiffness's interval lies wholly below zero ({median.lo:.3g} to {median.hi:.3g}): a "
+                 "limb is not negatively stiff, so the model does not fit (check the torque's sign and units, or "
+                 "run `limbstiff diagnose`); do not use the stiffness", UNRELIABLE)
 
 
 def _noise_levels(margins: np.ndarray, negligible: bool, share: float) -> Check:

@@ -237,14 +237,15 @@ def stiffness_shift(filtered: Filtered, *, inertia: float, damping: float, other
     return float(-(dy[use] @ dc[use]) / spread / median)
 
 
-def angle_terms_on(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float) -> AngleTerms | None:
+def angle_terms_on(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float,
+                   beside: np.ndarray | None = None) -> AngleTerms | None:
     """The stiffness's change with the angle within the motion cycle
     (:func:`~limbstiff.estimate.angle_terms.fit_angle_terms`) on the model's ``steps`` and ``noise``
-    (the analysis's own, with the Kalman estimator); None on fewer than :data:`MIN_STEPS` steps or
-    when the motion cannot tell the terms apart."""
+    (the analysis's own, with the Kalman estimator), fitted ``beside`` torques (k, m) the model lacks
+    when given; None on fewer than :data:`MIN_STEPS` steps or when the motion cannot tell the terms apart."""
     if len(steps.index) < MIN_STEPS:
         return None
-    return fit_angle_terms(steps, noise, motion_frequency=motion_frequency)
+    return fit_angle_terms(steps, noise, motion_frequency=motion_frequency, beside=beside)
 
 
 def angle_terms(filtered: Filtered, *, inertia: float, damping: float, noise: NoiseLevels) -> AngleTerms | None:

@@ -18,6 +18,7 @@ from ..filtered import filter_trial
 from ..protocol import Protocol
 from ..trial import Trial
 from ..effects.channels import Channels
+from ..effects.in_model import rival_columns, velocity_shape_miss
 from ..effects.kinds import remove
 from .parts import StiffnessBias, TrialBias
 
@@ -40,7 +41,8 @@ def analysis_stiffness(trial: Trial, result, ch: Channels, protocol: Protocol, i
     The analysis's own model and summary, without its choices from the data: the trial filtered at
     its corner, the Kalman estimate at its noise levels (not refitted: a corrected trial then differs
     from the nominal one by the correction alone), the change with the angle within the cycle when
-    the analysis added it, the limb's stiffness when it undid a coupling, and the median over the
+    the analysis added it (fitted as the analysis fits it, beside the velocity-driven torques when
+    significant), the limb's stiffness when it undid a coupling, and the median over the
     informed samples of its trial-level figures (:func:`limbstiff.figure_draws.figure_course`). On the
     analysis's own trial, m and b it is the median the analysis reports (an ensemble's aside: its
     curve is not re-estimated here).
@@ -54,8 +56,13 @@ def analysis_stiffness(trial: Trial, result, ch: Channels, protocol: Protocol, i
         est = estimators.kalman(filtered, noise=noise, inertia=ch.inertia if inertia is None else inertia,
                                 damping=ch.damping if damping is None else damping)
     level = result.trial_level
-    angle = (angle_terms_on(est.steps, est.fit.noise, motion_frequency=filtered.motion_hz)
-             if level is not None and "angle" in level.sources else None)
+    angle = None
+    if level is not None and "angle" in level.sources:
+        ident = result.identification
+        miss = velocity_shape_miss(trial, filtered, est.steps, est.fit.noise, observable=result.observable,
+                                   identified=ident is not None and not ident.given)
+        angle = angle_terms_on(est.steps, est.fit.noise, motion_frequency=filtered.motion_hz,
+                               beside=rival_columns(miss))
     samples, course = figure_course(filtered, est, result.observable, angle=angle)
     if limb_stiffness(result.coupling, est.stiffness, est.stiffness, est.stiffness)[0] is not est.stiffness:
         course = result.coupling.limb_stiffness(course)

@@ -106,7 +106,7 @@ def backlash_direction(ch: Channels, width: float) -> np.ndarray:
     return d
 
 
-def _activation(x: np.ndarray, fs: float, corner_hz: float | None) -> np.ndarray:
+def activation(x: np.ndarray, fs: float, corner_hz: float | None) -> np.ndarray:
     """Critically damped second-order low-pass 1/(τs + 1)², causal (muscle activation dynamics)."""
     if corner_hz is None:
         return x
@@ -162,7 +162,7 @@ def backlash_angle(ch, x, sh):
 def reflex_torque(ch, sh):
     """direction·[direction·ẏ(t − δ)]₊ through the activation dynamics, rad/s, shape (n,)."""
     s = sh["direction"]
-    return _activation(s * np.maximum(s * _delayed_velocity(ch, sh["delay"]), 0.0), ch.fs, sh["activation_hz"])
+    return activation(s * np.maximum(s * _delayed_velocity(ch, sh["delay"]), 0.0), ch.fs, sh["activation_hz"])
 
 
 def _delayed_velocity(ch, delay: float) -> np.ndarray:

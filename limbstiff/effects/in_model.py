@@ -23,7 +23,9 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..checks.model import MIN_STEPS
 from ..checks.reflex import MechanicsMove, ReflexShift
+from ..checks.shape import ShapeMiss, shape_miss
 from ..errors import LimbstiffError, TrialError
 from ..filtered import Filtered
 from ..mechanics.effect_terms import EffectTerms, without_effects
@@ -31,10 +33,13 @@ from ..mechanics.identification import Identification, mechanics_problem
 from ..mechanics.likelihood import MechanicsProblem, kalman_mechanics, robust_covariance
 from ..protocol import Protocol
 from ..statespace.noise import NoiseLevels
+from ..statespace.steps import ModelSteps
 from ..trial import Trial
+from ..unmodelled import delay_signal
+from .candidates import ACTIVATION_HZ, activation
 from .registry import CANDIDATES, IN_MODEL
 from .channels import Channels
-from .kinds import Scales, TorqueEffect
+from .kinds import Scales, TorqueEffect, filtered_torque
 
 #: The shapes of an effect are screened on the signals at a lower rate, at least this many times
 #: the low-pass corner (:func:`_screened`).
@@ -49,6 +54,12 @@ SCREEN_SHARE = 0.2
 #: than the reflex's delays (≤ 80 ms), its activation's time constants (≤ 0.12 s) and the low-pass
 #: filters' transients at the joins.
 SCREEN_MARGIN_S = 2.0
+#: Other shapes whose log marginal likelihood lies within this of the chosen one's (weight e⁻⁷ ≈ 10⁻³
+#: of it, where their draws stop mattering to a 90 % band) are kept as its alternatives, whose spread
+#: the band carries (:mod:`limbstiff.effects.model_form`) …
+EVIDENCE_SPAN = 7.0
+#: … at most this many of them (each costs one smoother pass and a course's memory).
+ALTERNATIVES_MAX = 3
 #: The shapes' torques are filtered together, at most about this many samples at a time (a few
 #: tens of MB: one call per block, not per shape).
 COLUMNS_SAMPLES = 2 ** 21
@@ -76,6 +87,10 @@ class ShapeProfile:
     without : ndarray, shape (p − 1,)
         The coefficients of the same model without it, at the same noise levels: the baseline its
         change of m and b is measured from.
+    alternatives : tuple of (float, ndarray)
+        The other shapes of comparable evidence (:data:`EVIDENCE_SPAN`, at most
+        :data:`ALTERNATIVES_MAX`, the most likely first): each one's log marginal likelihood less
+        the chosen one's (≤ 0) and its column (n,).
     """
 
     name: str
@@ -86,6 +101,7 @@ class ShapeProfile:
     covariance: np.ndarray
     shapes_tried: int
     without: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    alternatives: tuple = ()
 
     @property
     def amplitude_z(self) -> float:
@@ -185,20 +201,23 @@ def profile_effect(ch: Channels, name: str, problem: MechanicsProblem, noise: No
     base, without, _ = problem.conditional(logs)
     idx = problem.steps.index
     shapes = effect.grid(Scales.of([ch]))
-    best = None
+    tried = []
     screened = _screened(ch, effect, shapes, problem, logs)
     for shape, column in zip(screened, _columns(effect, ch, screened)):
         loglik = _shape_loglik(problem, logs, column[idx])
-        if loglik is not None and (best is None or loglik > best[0]):
-            best = (loglik, shape, np.array(column))
-    if best is None:
+        if loglik is not None:
+            tried.append((loglik, shape, np.array(column)))
+    if not tried:
         raise LimbstiffError(f"the {name} could not be fitted at any shape of its grid")
-    loglik, shape, column = best
+    tried.sort(key=lambda t: -t[0])
+    loglik, shape, column = tried[0]
+    alternatives = tuple((float(ll - loglik), col) for ll, _, col in tried[1:1 + ALTERNATIVES_MAX]
+                         if ll >= loglik - EVIDENCE_SPAN)
     with_it = dataclasses.replace(problem, steps=problem.steps.with_channels(column[idx]))
     mean = with_it.conditional(logs)[1]
     robust = robust_covariance(with_it, logs, mean, motion_frequency=ch.motion_hz)
     return ShapeProfile(name, dict(shape), column, float(loglik - base), mean, robust.sandwich, len(shapes),
-                        without=np.asarray(without, dtype=float))
+                        without=np.asarray(without, dtype=float), alternatives=alternatives)
 
 
 def effect_terms(trial: Trial, filtered: Filtered, names: Sequence[str], *,
@@ -234,7 +253,9 @@ def effect_terms(trial: Trial, filtered: Filtered, names: Sequence[str], *,
                        units=tuple(CANDIDATES[p.name].units.get(CANDIDATES[p.name].amplitudes[0], "1")
                                    for p in chosen),
                        columns=np.vstack([p.column for p in chosen]),
-                       loglik_gains=tuple(p.loglik_gain for p in chosen))
+                       loglik_gains=tuple(p.loglik_gain for p in chosen),
+                       alternatives=tuple(p.alternatives for p in chosen),
+                       shapes_tried=tuple(p.shapes_tried for p in chosen))
 
 
 def probe_effect(trial: Trial, filtered: Filtered, name: str, *, noise: NoiseLevels,
@@ -243,6 +264,18 @@ def probe_effect(trial: Trial, filtered: Filtered, name: str, *, noise: NoiseLev
     ``noise``; ``given`` m and b when they were given): what the ``reflex`` check reads."""
     problem, _ = mechanics_problem(filtered, given=given)
     return profile_effect(Channels.before_analysis(trial, filtered), name, problem, noise)
+
+
+def probe_delta(probe: ShapeProfile, intervals) -> np.ndarray:
+    """How far m, b and the probed effect's amplitude (from 0) move with it in the model, shape (3,):
+    m and b with the effect against m and b without it, both at the probe's noise levels (the
+    analysis's medians carry the priors, the sandwich and the angle error's shift as well); zero
+    for m or b given (``intervals`` None, or a fixed interval)."""
+    coef = np.asarray(probe.coefficients, dtype=float)
+    delta = np.concatenate([coef[:2] - probe.without[:2] if intervals is not None else np.zeros(2), coef[-1:]])
+    if intervals is not None:
+        delta[:2] = [0.0 if iv.is_fixed else d for iv, d in zip(intervals, delta[:2])]
+    return delta
 
 
 def reflex_shift(probe: ShapeProfile, *, sensitivity, intervals,
@@ -266,11 +299,7 @@ def reflex_shift(probe: ShapeProfile, *, sensitivity, intervals,
     ReflexShift
     """
     coef = np.asarray(probe.coefficients, dtype=float)
-    # m and b with the effect against m and b without it, both at the probe's noise levels (the
-    # analysis's medians carry the priors, the sandwich and the angle error's shift as well)
-    delta = np.concatenate([coef[:2] - probe.without[:2] if intervals is not None else np.zeros(2), coef[-1:]])
-    if intervals is not None:
-        delta[:2] = [0.0 if iv.is_fixed else d for iv, d in zip(intervals, delta[:2])]
+    delta = probe_delta(probe, intervals)
     where = informed if np.any(informed) else slice(None)
     change = delta[0] * sensitivity[0][where]
     for d, row in zip(delta[1:], sensitivity[1:3]):
@@ -323,3 +352,48 @@ def reflex_probe(trial: Trial, filtered: Filtered, protocol: Protocol, ident: Id
         return probe_effect(trial, filtered, "reflex", noise=noise, given=given)
     except (LimbstiffError, np.linalg.LinAlgError, ValueError, FloatingPointError):
         return None             # a check that cannot be computed is skipped, the analysis kept
+
+
+#: The velocity-driven torques the ``velocity_shape`` check fits beside the model
+#: (:mod:`limbstiff.checks.shape`): loop delays, s, within the reflex grid's 20–80 ms …
+SHAPE_DELAYS_S = (0.03, 0.06)
+#: … thresholds, as percentiles of the trial's |ẏ| (a reflex that starts only above some velocity) …
+SHAPE_PERCENTILES = (50.0, 80.0)
+#: … and one activation corner, Hz: the middle of the reflex grid's (:data:`candidates.ACTIVATION_HZ`).
+SHAPE_ACTIVATION_HZ = ACTIVATION_HZ[len(ACTIVATION_HZ) // 2]
+
+
+def velocity_shapes(trial: Trial, filtered: Filtered) -> np.ndarray:
+    """Torques that follow the velocity through a threshold: ±[±ẏ(t − δ) − v₀]₊ through the
+    activation, for δ in :data:`SHAPE_DELAYS_S`, v₀ at :data:`SHAPE_PERCENTILES` of |ẏ| and both
+    directions, filtered as the torque (:func:`filtered_torque`); rad/s, shape (k, n)."""
+    ch = Channels.before_analysis(trial, filtered)
+    speed = np.abs(ch.velocity)
+    rows = []
+    for delay in SHAPE_DELAYS_S:
+        late = delay_signal(ch.time, ch.velocity, delay, before=0.0)
+        for threshold in np.percentile(speed, SHAPE_PERCENTILES):
+            for s in (1.0, -1.0):
+                rows.append(activation(s * np.maximum(s * late - threshold, 0.0), ch.fs, SHAPE_ACTIVATION_HZ))
+    return filtered_torque(ch, np.vstack(rows))
+
+
+def velocity_shape_miss(trial: Trial, filtered: Filtered, steps: ModelSteps, noise: NoiseLevels, *,
+                        identified: bool, observable: np.ndarray) -> ShapeMiss | None:
+    """:func:`velocity_shapes` of ``trial`` and its ``filtered`` signals fitted beside the Kalman
+    model at ``steps`` and ``noise`` (:func:`~limbstiff.checks.shape.shape_miss`), with ÿ and ẏ
+    when m and b are ``identified``; the analysis's and the diagnosis's one computation. None for
+    the direct variant, too few steps, or a fit that cannot be made."""
+    if filtered.variant != "external" or len(steps.index) < MIN_STEPS:
+        return None
+    nuisance = np.vstack([filtered.acceleration[steps.index], filtered.velocity[steps.index]]) if identified else None
+    try:
+        return shape_miss(steps, noise, velocity_shapes(trial, filtered)[:, steps.index], nuisance=nuisance,
+                          informed=observable[steps.index], motion_frequency=filtered.motion_hz)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+        return None             # a check that cannot be computed is skipped, the analysis kept
+
+
+def rival_columns(miss: ShapeMiss | None) -> np.ndarray | None:
+    """The torques the angle terms are fitted beside: :func:`velocity_shape_miss`'s when significant."""
+    return miss.columns if miss is not None and miss.significant else None

@@ -21,9 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..statespace.linear import innovations, sandwich_covariance
+from ..statespace.linear import course_response, innovations, sandwich_covariance
 from ..statespace.noise import NoiseLevels
-from ..statespace.smoother import at_steps, kalman_smoother
 from ..statespace.steps import ModelSteps
 
 
@@ -45,6 +44,9 @@ class AngleTerms:
         the course lacks. A stiffness walk that follows the angle already has the term (missed ≈ 0).
     index : ndarray of int, shape (m,)
         The sample of each step.
+    beside : bool
+        Fitted beside other torques the model lacks (:func:`fit_angle_terms`): a rival explanation
+        of the same residual was found.
     """
 
     coefficients: np.ndarray
@@ -52,6 +54,7 @@ class AngleTerms:
     wald: float
     missed: np.ndarray
     index: np.ndarray
+    beside: bool = False
 
     def missed_course(self) -> np.ndarray:
         """β̂·missed: what the course lacks at each step, N·m/rad (N/m), shape (m,)."""
@@ -89,7 +92,8 @@ def angle_regressors(steps: ModelSteps) -> tuple[np.ndarray, np.ndarray]:
 MAX_CONDITION = 1e12
 
 
-def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float) -> AngleTerms | None:
+def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: float,
+                    beside: np.ndarray | None = None) -> AngleTerms | None:
     """The angle terms of a trial's Kalman model (module docstring).
 
     Parameters
@@ -100,6 +104,10 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
         The model's noise levels.
     motion_frequency : float, Hz
         Sets the lags of the long-run covariance.
+    beside : ndarray, shape (k, m), optional
+        Torques at the steps fitted together with the terms (a velocity-driven torque the model
+        lacks, :mod:`limbstiff.checks.shape`): the terms then claim only what those do not explain
+        (their innovations projected out of both sides, Frisch–Waugh–Lovell).
 
     Returns
     -------
@@ -107,11 +115,13 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
         None when the motion cannot tell the terms apart (:data:`MAX_CONDITION`).
     """
     U, H = angle_regressors(steps)
-    with_terms = steps.with_channels(U)
-    slopes = with_terms.slopes[1:]
+    with_terms = steps.with_channels(U if beside is None else np.vstack([U, beside]))
     e, s = innovations(with_terms, noise)
     e = e / np.sqrt(s)
-    x, eps = e[1:].T, e[0]
+    x, eps = e[1:3].T, e[0]
+    if beside is not None:
+        other = e[3:].T
+        x, eps = (v - other @ np.linalg.lstsq(other, v, rcond=None)[0] for v in (x, eps))
     information = x.T @ x
     if not np.all(np.isfinite(information)) or np.linalg.cond(information) > MAX_CONDITION:
         return None                     # the motion does not tell the two terms apart (or from none)
@@ -120,12 +130,9 @@ def fit_angle_terms(steps: ModelSteps, noise: NoiseLevels, *, motion_frequency: 
     if np.linalg.cond(sandwich) > MAX_CONDITION:
         return None
     # the smoother is linear in z: its course from z − β·U is its course from z less β times these
-    followed = np.vstack([at_steps(kalman_smoother(steps.increments, u, noise, step=steps.step,
-                                                   deflection=steps.deflection, initial_mean=(float(u[0]), float(k)),
-                                                   initial_cov=steps.initial_cov, loglik=False).mean[:, 1])
-                          for u, k in zip(U, slopes)])
+    followed = course_response(steps, U, noise)
     return AngleTerms(coefficients=beta, covariance=sandwich, wald=float(beta @ np.linalg.solve(sandwich, beta)),
-                      missed=H - followed, index=steps.index)
+                      missed=H - followed, index=steps.index, beside=beside is not None)
 
 
 #: Central share of the informed steps' deflections the stiffness against angle is drawn over

@@ -37,6 +37,11 @@ class EffectTerms:
     loglik_gains : tuple of float
         How much each raised the log marginal likelihood when it was chosen (at fixed noise
         levels; the profile of :mod:`limbstiff.effects.in_model`).
+    alternatives : tuple of tuple of (float, ndarray)
+        Each one's other shapes of comparable evidence: log marginal likelihood less the chosen
+        shape's, and the column (n,) (:attr:`limbstiff.effects.in_model.ShapeProfile.alternatives`).
+    shapes_tried : tuple of int
+        The size of each one's grid of shapes.
     """
 
     names: tuple[str, ...]
@@ -45,6 +50,8 @@ class EffectTerms:
     units: tuple[str, ...]
     columns: np.ndarray
     loglik_gains: tuple[float, ...] = ()
+    alternatives: tuple = ()
+    shapes_tried: tuple[int, ...] = ()
 
     def __len__(self) -> int:
         return len(self.names)

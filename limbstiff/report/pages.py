@@ -13,7 +13,7 @@ import textwrap
 
 import numpy as np
 
-from ..digest import INFORMED_GLOSS, gloss_rows, headline_rows, recording_rows, verdict_line
+from ..digest import ANGLE_PROPERTY, INFORMED_GLOSS, gloss_rows, headline_rows, recording_rows, verdict_line
 from ..trial_level import REFERENCE_SKIP_S
 from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, ROW_SPACING, envelope, envelope_band, fmt, grid,
                      key_value_lines, new_page, robust_limits, shade_false, text_panel)
@@ -90,8 +90,10 @@ def angle_rows(result, figure=None) -> list[tuple[str, str]]:
     if figure is None:
         return []
     u = result.trial.units
+    check = result.checks["angle_dependence"]
+    joints = ": a property of the joint," if check.message.startswith(ANGLE_PROPERTY) else ","
     return [("Stiffness vs angle", angle_course_words(figure.course, u["angle"], u["stiffness"])
-             + f": a property of the joint, shown on page {ANGLE_PAGE}; the median summarises a stiffness "
+             + f"{joints} shown on page {ANGLE_PAGE}; the median summarises a stiffness "
                "that varies with the angle")]
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from . import kernels
 from .noise import NoiseLevels
-from .steps import ModelSteps
+from .steps import ModelSteps, initial_slopes
 
 
 #: Above this many channels the quadratic form is taken from the innovations by a matrix product
@@ -200,3 +200,17 @@ def sandwich_covariance(x: np.ndarray, residual: np.ndarray, *, motion_frequency
     """
     h_inv = np.linalg.inv(x.T @ x)
     return h_inv, h_inv @ long_run_covariance(x * residual[:, None], long_run_lags(motion_frequency, step)) @ h_inv
+
+
+def course_response(steps: ModelSteps, columns: np.ndarray, noise: NoiseLevels) -> np.ndarray:
+    """The smoothed stiffness course's response to each torque of ``columns`` (k, m) at the steps
+    added to z, aligned as the estimate (:func:`~limbstiff.statespace.smoother.at_steps`): the
+    smoother is linear in z, so the course from z − u is the course from z less this. Shape (k, m),
+    N·m/rad (N/m) per unit of each column."""
+    from .smoother import at_steps, kalman_smoother
+    columns = np.atleast_2d(np.asarray(columns, dtype=float))
+    slopes = initial_slopes(steps.angle, columns)
+    return np.vstack([at_steps(kalman_smoother(steps.increments, u, noise, step=steps.step,
+                                               deflection=steps.deflection, initial_mean=(float(u[0]), float(k)),
+                                               initial_cov=steps.initial_cov, loglik=False).mean[:, 1])
+                      for u, k in zip(columns, slopes)])
