@@ -364,7 +364,9 @@ def main() -> None:
     out["before"] = ({"ok": out["ok"], "by_phase": out["by_phase"], "by_schedule": out["by_schedule"],
                       "wall_s": out["wall_s"]} if args.before else previous.get("before", {}))
     (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
-    if not args.no_timing:
+    if args.no_timing:                  # the last measured timing is kept, said as such by its commit
+        out["timing"] = previous.get("timing")
+    else:
         out["timing"] = timing()
         (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
     out["real_ankle"] = real_ankle()

@@ -1,0 +1,191 @@
+"""The least-squares cross-check of a curve: the method labs used before limbstiff, computed beside it.
+
+By phase (an ensemble): in each of the curve's phase bins, the torque τ̃, angle θ̃ and its
+derivatives θ̃', θ̃'' with the cycles' mean at each phase taken off
+(:func:`limbstiff.cycles.ensemble_mean`, as :mod:`.prepare` takes it off the angle and torque),
+and τ̃ = K·θ̃ + B·θ̃' + I·θ̃'' + c fitted by least squares over every cycle's samples in the bin:
+K, B, I and c of the bin's own. By schedule: the same fit in each schedule bin, over the samples
+of every stretch (the held-out units) whose schedule falls in it, each stretch's slow trend taken
+off first — the part of each channel linear in time and in the schedule within the stretch (the
+operating point moving with the schedule). The signals are the analysis's filtered ones, the same
+the model sees.
+
+The interval resamples whole units (cycles or stretches) with replacement — the units are the
+exchangeable pieces of the recording, so whatever differs from cycle to cycle, the model's misfit
+included, widens it — and takes the percentile interval at the curve's level. A bin's K is not
+given (NaN) where fewer than :data:`~.curve.MIN_BIN_CYCLES` units reach it, or where its angle
+does not move apart from its velocity and acceleration: the angle's standard deviation in the
+bin, once the parts that follow θ̃', θ̃'' and the constant are taken off (the Schur complement of
+the bin's normal equations), is below the angle resolution the recording itself shows
+(:attr:`limbstiff.filtered.Filtered.angle_resolution`: its quantisation step or noise). Pure numpy:
+no I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import cycles
+from .curve import MIN_BIN_CYCLES, adjacent_correlation
+
+#: Resamples of the units for the interval.
+RESAMPLES = 200
+
+
+@dataclass(frozen=True)
+class LeastSquaresCurve:
+    """The least-squares stiffness in each of the curve's bins.
+
+    Parameters
+    ----------
+    stiffness, lo, hi : ndarray, shape (B,), N·m/rad (N/m)
+        K of each bin and its percentile interval over resampled units; NaN where not informed.
+    units : ndarray of int, shape (B,)
+        Units (cycles or stretches) with samples in the bin.
+    level : float
+    adjacent_correlation : float
+        Correlation of neighbouring bins' resampled K (median over the pairs): how far the bins
+        are independent comparisons.
+    how : str
+        What was fitted, in words.
+    """
+
+    stiffness: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    units: np.ndarray
+    level: float
+    adjacent_correlation: float
+    how: str
+
+    @property
+    def informed(self) -> np.ndarray:
+        return np.isfinite(self.stiffness)
+
+    def to_dict(self) -> dict:
+        def floats(x):
+            return [None if not np.isfinite(v) else float(v) for v in x]
+        return {"stiffness": floats(self.stiffness), "lo": floats(self.lo), "hi": floats(self.hi),
+                "ci_level": self.level, "informed_bins": int(self.informed.sum()), "how": self.how}
+
+
+def phase_channels(signals: np.ndarray, phase: np.ndarray, *, bins: int) -> np.ndarray:
+    """The channels ``signals`` (c, n) with the cycles' mean at each phase (n,) taken off, (c, n)."""
+    return np.stack([x - cycles.ensemble_mean(x, phase, bins=bins) for x in signals])
+
+
+def schedule_channels(signals: np.ndarray, u: np.ndarray, unit: np.ndarray, time: np.ndarray) -> np.ndarray:
+    """The channels ``signals`` (c, n) with each stretch's slow trend taken off: within every unit
+    ``unit`` (n,), the least-squares part of each channel in 1, time (n,) s and the schedule ``u`` (n,)."""
+    out = np.full_like(signals, np.nan, dtype=float)
+    for k in np.unique(unit[unit >= 0]):
+        at = np.flatnonzero((unit == k) & np.isfinite(u))
+        if len(at) < 4:
+            continue
+        x = np.column_stack([np.ones(len(at)), time[at] - time[at].mean(), u[at] - u[at].mean()])
+        coef = np.linalg.lstsq(x, signals[:, at].T, rcond=None)[0]
+        out[:, at] = signals[:, at] - (x @ coef).T
+    return out
+
+
+def _unit_sums(tau: np.ndarray, x: np.ndarray, which: np.ndarray, unit: np.ndarray, bins: int,
+               units: int) -> tuple[np.ndarray, np.ndarray]:
+    """The normal equations' sums X'X (bins, units, p, p) and X'τ (bins, units, p) of each unit in each bin."""
+    key, p = which * units + unit, x.shape[1]
+    xx = np.stack([np.bincount(key, x[:, i] * x[:, j], minlength=bins * units) for i in range(p) for j in range(p)],
+                  axis=-1).reshape(bins, units, p, p)
+    xy = np.stack([np.bincount(key, x[:, i] * tau, minlength=bins * units) for i in range(p)],
+                  axis=-1).reshape(bins, units, p)
+    return xx, xy
+
+
+def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """K (the first coefficient) of the normal equations a (..., p, p), b (..., p); NaN where singular."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ok = np.linalg.cond(a) < 1.0 / np.finfo(float).eps
+    out = np.full(a.shape[:-2], np.nan)
+    if ok.any():
+        out[ok] = np.linalg.solve(a[ok], b[ok][..., None])[..., 0, 0]
+    return out
+
+
+def binned_least_squares(tau: np.ndarray, angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray, *,
+                         which: np.ndarray, unit: np.ndarray, bins: int, level: float, resolution: float,
+                         rng: np.random.Generator, how: str) -> LeastSquaresCurve:
+    """τ̃ = K·θ̃ + B·θ̃' + I·θ̃'' + c by least squares in each bin, its interval over resampled units.
+
+    Parameters
+    ----------
+    tau, angle, velocity, acceleration : ndarray, shape (m,)
+        The samples used (N·m, rad, rad/s, rad/s²), their slow part already taken off
+        (:func:`phase_channels`, :func:`schedule_channels`).
+    which : ndarray of int, shape (m,)
+        Each sample's bin, 0…bins − 1.
+    unit : ndarray of int, shape (m,)
+        Each sample's unit (cycle or stretch), 0…U − 1.
+    bins : int
+    level : float
+        Of the interval.
+    resolution : float, rad
+        The angle resolution of the recording (module docstring).
+    rng : numpy.random.Generator
+    how : str
+    """
+    scale = np.array([np.std(angle), np.std(velocity), np.std(acceleration), 1.0])
+    scale[scale == 0] = 1.0
+    x = np.column_stack([angle, velocity, acceleration, np.ones(len(tau))]) / scale
+    n_units = int(unit.max()) + 1
+    xx, xy = _unit_sums(tau, x, which, unit, bins, n_units)
+    per_bin = np.count_nonzero(xx[:, :, 3, 3] > 0, axis=1)
+    a, b = xx.sum(axis=1), xy.sum(axis=1)
+    k = _solve(a, b) / scale[0]
+    n = np.maximum(a[:, 3, 3], 1.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # the angle's variance apart from θ̃', θ̃'' and c: 1 / (a⁻¹)₀₀ per sample
+        partial_sd = scale[0] / np.sqrt(np.abs(np.linalg.pinv(a, hermitian=True)[:, 0, 0]) * n)
+    informed = (per_bin >= MIN_BIN_CYCLES) & (partial_sd > resolution) & np.isfinite(k)
+    drawn = rng.integers(0, n_units, size=(RESAMPLES, n_units))
+    weights = np.stack([np.bincount(d, minlength=n_units) for d in drawn]).astype(float)   # (R, U)
+    kr = _solve(np.einsum("ru,bupq->rbpq", weights, xx), np.einsum("ru,bup->rbp", weights, xy)) / scale[0]
+    lo, hi = np.full((2, bins), np.nan)
+    if informed.any():
+        lo[informed], hi[informed] = np.nanquantile(kr[:, informed], [0.5 - level / 2, 0.5 + level / 2], axis=0)
+    k = np.where(informed, k, np.nan)
+    return LeastSquaresCurve(k, lo, hi, per_bin, level, adjacent_correlation(kr[:, informed]), how)
+
+
+def curve_least_squares(filtered, prepared, edges: np.ndarray, observable: np.ndarray, *, level: float,
+                        rng: np.random.Generator) -> LeastSquaresCurve:
+    """The cross-check on the curve's bins ``edges`` (B + 1,) from the analysis's filtered signals.
+
+    Parameters
+    ----------
+    filtered : Filtered
+        The analysis's filtered angle, velocity, acceleration and torque (n,).
+    prepared : ScheduleInput
+        Its phase or schedule ``u``, cycles and held-out units.
+    edges : ndarray, shape (B + 1,)
+    observable : ndarray of bool, shape (n,)
+        The samples the analysis's motion informs.
+    level : float
+    rng : numpy.random.Generator
+    """
+    signals = np.stack([filtered.torque, filtered.angle, filtered.velocity, filtered.acceleration])
+    u, unit = prepared.u, prepared.held_out
+    if prepared.against == "phase":
+        signals = phase_channels(signals, u, bins=prepared.mean_bins)
+        how = ("K, B, I and a constant fitted in each phase bin over every cycle's samples, the cycles' mean at "
+               "each phase taken off; interval: whole cycles resampled")
+    else:
+        signals = schedule_channels(signals, u, unit, np.arange(filtered.n) * filtered.sample_period)
+        how = ("K, B, I and a constant fitted in each schedule bin over the stretches' samples, each stretch's "
+               "part linear in time and in the schedule taken off; interval: whole stretches resampled")
+    edge = np.zeros(filtered.n, dtype=bool)
+    edge[filtered.edge:filtered.n - filtered.edge] = True
+    use = np.flatnonzero(observable & edge & np.isfinite(u) & np.isfinite(signals).all(axis=0) & (unit >= 0))
+    bins = len(edges) - 1
+    which = np.clip(np.searchsorted(edges, u[use], side="right") - 1, 0, bins - 1)
+    return binned_least_squares(*signals[:, use], which=which, unit=unit[use], bins=bins, level=level,
+                                resolution=filtered.angle_resolution, rng=rng, how=how)
