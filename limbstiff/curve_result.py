@@ -137,7 +137,7 @@ class CurveAnalysis:
         return frame
 
     def plot(self, ax=None, *, unit_stiffness: str = "N·m/rad", legend: bool = True):
-        """Draw the curve, its band and (ensembles) the cycles' spread into a matplotlib axes
+        """Draw the curve, its band, (ensembles) the cycles' spread and the least-squares points into a matplotlib axes
         (:func:`limbstiff.report.curve.plot_curve`); pyplot's current axes when ``ax`` is omitted.
 
         Returns
@@ -145,7 +145,8 @@ class CurveAnalysis:
         matplotlib.axes.Axes
         """
         from .report.curve import plot_curve
-        return plot_curve(self.curve, ax=ax, unit_stiffness=unit_stiffness, legend=legend)
+        return plot_curve(self.curve, ax=ax, unit_stiffness=unit_stiffness, legend=legend,
+                          least_squares=self.least_squares)
 
     def report(self, *, unit_stiffness: str = "N·m/rad") -> str:
         """The curve in words: its verdict and reasons, what it is pooled over, its resolution, its

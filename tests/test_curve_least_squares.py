@@ -153,3 +153,16 @@ def test_resampled_band_shows_the_units_spread():
     assert width[0] == pytest.approx(0.0, abs=1e-12)
     assert width[1] == pytest.approx(0.52 * np.std(means[1]), rel=0.3)
     assert width[2] == pytest.approx(0.52 * np.std(means[2]), rel=0.3)
+
+
+def test_a_level_off_on_correlated_bins_is_found_by_the_mean_difference():
+    """Neighbouring bins correlated 0.95 leave ~1 independent comparison: the count of disagreeing
+    bins cannot tell, the mean difference can (a curve at 0.7 of the fit's level, bands ±5 %)."""
+    ls, _ = _least_squares(7)
+    k = ls.stiffness
+    assert chance_share(50, 0.95, 0.9) > 1.0                   # one comparison: never by count
+    low = _curve(0.7 * k, 0.7 * k * 0.95, 0.7 * k * 1.05, correlation=0.95)
+    check = least_squares_check(low, dataclasses.replace(ls, adjacent_correlation=0.95))
+    assert not check.passed and "below the fit on average" in check.message
+    same = _curve(k, k * 0.95, k * 1.05, correlation=0.95)
+    assert least_squares_check(same, dataclasses.replace(ls, adjacent_correlation=0.95)).passed

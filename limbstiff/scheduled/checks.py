@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scipy.stats import binom
+from scipy.stats import binom, norm
 
 from ..checks.verdict import UNRELIABLE, Check
 from .curve import ScheduleCurve
@@ -93,48 +93,71 @@ def _where(curve: ScheduleCurve, mask: np.ndarray, most: int = 6) -> str:
     return f"{curve.against} " + ", ".join(f"{a:.3g}–{b:.3g}" for a, b in runs[:most]) + unit + more
 
 
+def effective_bins(n: int, correlation: float) -> float:
+    """The independent comparisons ``n`` bins are worth when neighbours' errors correlate
+    ``correlation``: n·(1 − ρ)/(1 + ρ) (the effective size of an AR(1) mean), at least 1."""
+    rho = float(np.clip(correlation, 0.0, 0.99))
+    return max(1.0, n * (1 - rho) / (1 + rho))
+
+
 def chance_share(n: int, correlation: float, level: float) -> float:
     """The largest share of ``n`` compared bins that may disagree by chance.
 
     Two calibrated, independent Gaussian bands at ``level`` disagree beyond the root sum of their
-    squared half-widths with probability 1 − ``level`` (the difference's own ``level`` band).
-    Neighbouring bins share their errors (``correlation``, of the two bands' draws), so the bins
-    are worth n·(1 − ρ)/(1 + ρ) independent comparisons (the effective size of an AR(1) mean); the
-    share is that of the smallest count whose binomial upper tail is at most
-    :data:`CROSS_CHECK_ALPHA`. Follows from the bands' definition, not fitted to trials.
+    squared half-widths with probability 1 − ``level`` (the difference's own ``level`` band). Over
+    :func:`effective_bins` independent comparisons, the share is that of the smallest count whose
+    binomial upper tail is at most :data:`CROSS_CHECK_ALPHA`. Follows from the bands' definition,
+    not fitted to trials.
     """
-    rho = float(np.clip(correlation, 0.0, 0.99))
-    n_eff = max(1, int(round(n * (1 - rho) / (1 + rho))))
+    n_eff = int(round(effective_bins(n, correlation)))
     k = int(binom.isf(CROSS_CHECK_ALPHA, n_eff, 1 - level)) + 1      # P(X ≥ k) ≤ alpha
     return k / n_eff
 
 
-def least_squares_check(curve: ScheduleCurve, ls: LeastSquaresCurve) -> Check:
-    """``curve_least_squares``: the curve against the least-squares fit in each bin where both are
-    given; a bin disagrees when they differ by more than the root sum of squares of their
-    half-widths, and the check fails when more bins disagree than :func:`chance_share` allows."""
+def _cross(curve: ScheduleCurve, ls: LeastSquaresCurve):
+    """The compared bins, those that disagree, the chance share, and the mean standardised
+    difference (curve − least squares, each band's half-width taken as z·σ) with its bound."""
     both = curve.informed & ls.informed
-    noun = "phase" if curve.against == "phase" else "schedule"
-    if not both.any():
-        return Check("curve_least_squares", None, None, True,
-                     f"no bin has both the curve and an informed least-squares fit by {noun}")
     hw_m, hw_ls = (curve.hi - curve.lo) / 2, (ls.hi - ls.lo) / 2
     apart = both & (np.abs(curve.stiffness - ls.stiffness) > np.hypot(hw_m, hw_ls))
     var_m, var_ls = np.median(hw_m[both] ** 2), np.median(hw_ls[both] ** 2)
     rho = (curve.adjacent_correlation * var_m + ls.adjacent_correlation * var_ls) / max(var_m + var_ls, 1e-300)
+    n = int(both.sum())
+    z = norm.isf((1 - curve.level) / 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = (curve.stiffness - ls.stiffness)[both] / np.maximum(np.hypot(hw_m, hw_ls)[both] / z, 1e-300)
+    bound = norm.isf(CROSS_CHECK_ALPHA / 2) / np.sqrt(effective_bins(n, rho))
+    return both, apart, chance_share(n, rho, curve.level), float(np.mean(d)), float(bound)
+
+
+def least_squares_check(curve: ScheduleCurve, ls: LeastSquaresCurve) -> Check:
+    """``curve_least_squares``: the curve against the least-squares fit in each bin where both are
+    given. A bin disagrees when they differ by more than the root sum of squares of their
+    half-widths; the check fails when more bins disagree than :func:`chance_share` allows, or when
+    the curve lies on one side of the fit on average: the mean of the bins' differences in units of
+    their combined σ beyond its :data:`CROSS_CHECK_ALPHA` two-sided bound over the
+    :func:`effective_bins` (a level wrong everywhere, which correlated bins hide from the count)."""
+    noun = "phase" if curve.against == "phase" else "schedule"
+    if not (curve.informed & ls.informed).any():
+        return Check("curve_least_squares", None, None, True,
+                     f"no bin has both the curve and an informed least-squares fit by {noun}")
+    both, apart, limit, mean_d, bound = _cross(curve, ls)
     n, k = int(both.sum()), int(apart.sum())
-    limit = chance_share(n, rho, curve.level)
     share = k / n
-    if share < limit:
+    level_off = abs(mean_d) > bound
+    if share < limit and not level_off:
         return Check("curve_least_squares", share, limit, True,
                      f"the least-squares fit by {noun} agrees with the curve within their bands in {n - k} of {n} bins "
-                     f"(chance allows {100 * limit:.0f} % to disagree)")
+                     f"(chance allows {100 * limit:.0f} % to disagree), and on average")
+    ratio = float(np.median(curve.stiffness[both] / ls.stiffness[both]))
+    where = (f"at {_where(curve, apart)}" if k else "everywhere a little")
+    level = (f"; the curve lies {'below' if mean_d < 0 else 'above'} the fit on average (median ratio {ratio:.2f})"
+             if level_off else "")
     return Check("curve_least_squares", share, limit, False,
                  f"the curve and a least-squares fit by {noun} (K, B and I of each bin's own) disagree beyond their "
-                 f"bands in {k} of {n} bins, more than chance allows ({100 * limit:.0f} %), at {_where(curve, apart)}: "
-                 "the model lacks a feature of the data there (a sharp change, a reflex or a threshold it does not "
-                 "hold), so the curve's band may not hold the stiffness there; the least-squares points are drawn "
-                 "on the curve's page")
+                 f"bands in {k} of {n} bins (chance allows {100 * limit:.0f} %) {where}{level}: the model lacks a "
+                 "feature of the data there (a sharp change, a reflex or a threshold it does not hold), so the curve's "
+                 "band may not hold the stiffness there; the least-squares points are drawn on the curve's page")
 
 
 def negative_check(curve: ScheduleCurve, ls: LeastSquaresCurve | None = None) -> Check:
