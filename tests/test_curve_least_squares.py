@@ -166,3 +166,12 @@ def test_a_level_off_on_correlated_bins_is_found_by_the_mean_difference():
     assert not check.passed and "below the fit on average" in check.message
     same = _curve(k, k * 0.95, k * 1.05, correlation=0.95)
     assert least_squares_check(same, dataclasses.replace(ls, adjacent_correlation=0.95)).passed
+
+
+def test_summary_csv_row_has_the_curve_verdict_blank_without_a_curve():
+    from limbstiff.batch.runner import TrialOutcome
+    from limbstiff.batch.table import TrialRow, summary_row
+    with_curve = TrialRow.from_summary({"verdict": "ok", "by_schedule": {"verdict": "caution"}})
+    assert summary_row(TrialOutcome("a", "a.csv", "ok", "", with_curve))["curve_verdict"] == "caution"
+    plain = TrialRow.from_summary({"verdict": "ok", "by_phase": None})
+    assert summary_row(TrialOutcome("b", "b.csv", "ok", "", plain))["curve_verdict"] is None

@@ -177,7 +177,10 @@ def resampled_band(hits: np.ndarray, sums: np.ndarray, *, level: float, rng: np.
     weights = np.stack([np.bincount(d, minlength=units) for d in rng.integers(0, units, (draws, units))]).astype(float)
     with np.errstate(invalid="ignore", divide="ignore"):
         means = (weights @ sums.T) / (weights @ hits.T)                 # (draws, bins)
-    return tuple(np.nanquantile(means, [0.5 - level / 2, 0.5 + level / 2], axis=0))
+    out = np.full((2, hits.shape[0]), np.nan)
+    some = np.isfinite(means).any(axis=0)
+    out[:, some] = np.nanquantile(means[:, some], [0.5 - level / 2, 0.5 + level / 2], axis=0)
+    return out[0], out[1]
 
 
 def schedule_curve(estimate, ident, *, against: str, u: np.ndarray, cycle: np.ndarray | None, units: np.ndarray,
