@@ -154,7 +154,8 @@ def _curve_verdict(result, truth: np.ndarray) -> dict:
     out = {"curve_verdict": str(own if own is not None else result.verdict),
            "curve_verdict_from": "curve" if own is not None else "trial",
            "curve_reasons": list(analysis.reasons if own is not None else result.checks.reasons),
-           "cross_check": None, "ls_median_error": None, "ls_bins": 0}
+           "cross_check": None, "ls_median_error": None, "ls_bins": 0,
+           "width_ratio": getattr(analysis.curve, "width_ratio", None)}
     ls = getattr(analysis, "least_squares", None)
     if ls is not None:
         check = next(c for c in analysis.checks if c.name == "curve_least_squares")
@@ -247,7 +248,12 @@ def ok_figures(rows: list[dict]) -> dict:
     ok = [r for r in done if r["curve_verdict"] == "ok"]
     inside = np.concatenate([r["inside"] for r in ok]) if ok else np.zeros(0)
     k, n = int(inside.sum()), int(inside.size)
+    ls = [r["ls_median_error"] for r in done if r.get("ls_median_error") is not None]
+    ratios = [r["width_ratio"] for r in done if r.get("width_ratio") is not None]
     return {"curves": len(done), "ok": len(ok), "ok_share": len(ok) / len(done) if done else None,
+            "ls_median_error": float(np.median(ls)) if ls else None,
+            "width_ratio": float(np.median(ratios)) if ratios else None,
+            "cross_check_failed": sum(1 for r in done if r.get("cross_check") and not r["cross_check"]["passed"]),
             "ok_bins": n, "ok_coverage": k / n if n else None, "ok_coverage_wilson": list(wilson(k, n)),
             "ok_median_error": float(np.median(np.concatenate([r["errors"] for r in ok]))) if ok else None,
             "relative_width": float(np.median([r["relative_width"] for r in done])) if done else None,
@@ -271,6 +277,12 @@ def _ok_lines(out: dict) -> list[str]:
         exc = ", ".join(f"{e['name']} ({100 * e['coverage']:.0f} %)" for e in fig["exceptions"]) or "none"
         lines.append(f"| {label} | {fig['curves']} | {fig['ok']} ({100 * fig['ok_share']:.0f} %) | {cov} | {err} | "
                      f"{100 * fig['relative_width']:.1f} % | {exc} |")
+    now = out.get("ok") or {}
+    if now.get("ls_median_error") is not None:
+        lines.append(f"\nNow: the least-squares cross-check failed on {now['cross_check_failed']} of {now['curves']} curves; "
+                     f"the least-squares curve's own median error (median over the curves) "
+                     f"{100 * now['ls_median_error']:.1f} %; the band's width over the posterior's alone "
+                     f"(median over the curves of each curve's median over its bins) {now['width_ratio']:.2f}.")
     return lines
 
 

@@ -72,11 +72,11 @@ def test_schedule_channels_take_each_stretch_trend_off():
     u = 0.1 * t + 0.05 * np.sin(2 * np.pi * 0.3 * t)
     unit = (t // 1.0).astype(int)
     wiggle = np.sin(2 * np.pi * 7 * t)
-    out = schedule_channels(np.stack([3.0 + 2.0 * t + 5.0 * u, wiggle]), u, unit, t)
-    # what is linear in time and schedule goes (to rounding)
+    out = schedule_channels(np.stack([3.0 + 2.0 * t + 0.7 * t ** 2 + 5.0 * u, wiggle]), u, unit, t)
+    # what is quadratic in time and linear in the schedule goes (to rounding)
     assert np.abs(out[0]).max() < 1e-9
     # a 7 Hz wiggle stays: its projection on a line over a 1 s stretch holds (12/(2π·7))²/12 / ½
-    # = 1.2 % of its variance, correlation ≈ 0.994 (the schedule's slow sine takes a little more)
+    # = 1.2 % of its variance, correlation ≈ 0.994 (the square and the schedule's slow sine take a little more)
     assert np.corrcoef(out[1], wiggle)[0, 1] > 0.98
 
 

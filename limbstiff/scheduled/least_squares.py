@@ -6,13 +6,16 @@ derivatives θ̃', θ̃'' with the cycles' mean at each phase taken off
 and τ̃ = K·θ̃ + B·θ̃' + I·θ̃'' + c fitted by least squares over every cycle's samples in the bin:
 K, B, I and c of the bin's own. By schedule: the same fit in each schedule bin, over the samples
 of every stretch (the held-out units) whose schedule falls in it, each stretch's slow trend taken
-off first — the part of each channel linear in time and in the schedule within the stretch (the
-operating point moving with the schedule). The signals are the analysis's filtered ones, the same
-the model sees.
+off first — the part of each channel quadratic in time and linear in the schedule within the
+stretch (the operating point moving with the schedule; over a stretch of seconds the elastic
+torque of a stiffness that changes with the schedule is quadratic in it). The signals are the
+analysis's filtered ones, the same the model sees.
 
-The interval resamples whole units (cycles or stretches) with replacement — the units are the
+The interval resamples whole units with replacement — whole cycles of an ensemble, the
 exchangeable pieces of the recording, so whatever differs from cycle to cycle, the model's misfit
-included, widens it — and takes the percentile interval at the curve's level. A bin's K is not
+included, widens it; for a schedule, blocks of one period of the motion (``motion_hz``, over
+which its residual stays correlated), because a stretch crosses a bin of a slow sweep once — and
+takes the percentile interval at the curve's level. A bin's K is not
 given (NaN) where fewer than :data:`~.curve.MIN_BIN_CYCLES` units reach it, or where its angle
 does not move apart from its velocity and acceleration: the angle's standard deviation in the
 bin, once the parts that follow θ̃', θ̃'' and the constant are taken off (the Schur complement of
@@ -78,13 +81,15 @@ def phase_channels(signals: np.ndarray, phase: np.ndarray, *, bins: int) -> np.n
 
 def schedule_channels(signals: np.ndarray, u: np.ndarray, unit: np.ndarray, time: np.ndarray) -> np.ndarray:
     """The channels ``signals`` (c, n) with each stretch's slow trend taken off: within every unit
-    ``unit`` (n,), the least-squares part of each channel in 1, time (n,) s and the schedule ``u`` (n,)."""
+    ``unit`` (n,), the least-squares part of each channel in 1, time (n,) s, its square and the
+    schedule ``u`` (n,)."""
     out = np.full_like(signals, np.nan, dtype=float)
     for k in np.unique(unit[unit >= 0]):
         at = np.flatnonzero((unit == k) & np.isfinite(u))
         if len(at) < 4:
             continue
-        x = np.column_stack([np.ones(len(at)), time[at] - time[at].mean(), u[at] - u[at].mean()])
+        dt = time[at] - time[at].mean()
+        x = np.column_stack([np.ones(len(at)), dt, dt * dt, u[at] - u[at].mean()])
         coef = np.linalg.lstsq(x, signals[:, at].T, rcond=None)[0]
         out[:, at] = signals[:, at] - (x @ coef).T
     return out
@@ -180,12 +185,15 @@ def curve_least_squares(filtered, prepared, edges: np.ndarray, observable: np.nd
                "each phase taken off; interval: whole cycles resampled")
     else:
         signals = schedule_channels(signals, u, unit, np.arange(filtered.n) * filtered.sample_period)
+        unit = np.arange(filtered.n) // max(1, int(round(filtered.fs / filtered.motion_hz)))
         how = ("K, B, I and a constant fitted in each schedule bin over the stretches' samples, each stretch's "
-               "part linear in time and in the schedule taken off; interval: whole stretches resampled")
+               "part quadratic in time and linear in the schedule taken off; interval: blocks of one period of "
+               "the motion resampled")
     edge = np.zeros(filtered.n, dtype=bool)
     edge[filtered.edge:filtered.n - filtered.edge] = True
     use = np.flatnonzero(observable & edge & np.isfinite(u) & np.isfinite(signals).all(axis=0) & (unit >= 0))
     bins = len(edges) - 1
     which = np.clip(np.searchsorted(edges, u[use], side="right") - 1, 0, bins - 1)
-    return binned_least_squares(*signals[:, use], which=which, unit=unit[use], bins=bins, level=level,
+    unit = np.unique(unit[use], return_inverse=True)[1]                  # numbered 0…U − 1
+    return binned_least_squares(*signals[:, use], which=which, unit=unit, bins=bins, level=level,
                                 resolution=filtered.angle_resolution, rng=rng, how=how)
