@@ -158,7 +158,7 @@ def _curve_verdict(result, truth: np.ndarray) -> dict:
            "width_ratio": getattr(analysis.curve, "width_ratio", None)}
     ls = getattr(analysis, "least_squares", None)
     if ls is not None:
-        check = next(c for c in analysis.checks if c.name == "curve_least_squares")
+        check = next(c for c in analysis.band_checks if c.name == "curve_least_squares")
         out["cross_check"] = {"passed": check.passed, "value": check.value, "threshold": check.threshold,
                               "message": check.message}
         use = np.isfinite(ls.stiffness)
