@@ -24,7 +24,7 @@ from .files.outputs import jsonable
 from .scheduled.checks import (disagree_check, heldout_check, least_squares_check, motion_check, negative_check,
                                unit_errors)
 from .scheduled.curve import ScheduleCurve, schedule_curve
-from .scheduled.least_squares import LeastSquaresCurve, curve_least_squares
+from .scheduled.least_squares import LeastSquaresCurve, curve_least_squares, misfit_share
 from .scheduled.fit import ScheduleTerms
 from .scheduled.prepare import ScheduleInput
 from .scheduled.resolution import Resolution
@@ -189,5 +189,7 @@ def curve_analysis(prepared: ScheduleInput, terms: ScheduleTerms, estimate, iden
     unit[:GUARD_STEPS] = -1                       # the filter's diffuse start
     errors = unit_errors(e[0], var, unit)
     checks = (heldout_check(score, noun=noun), disagree_check(errors, noun=noun, first_s=starts), motion_check(curve))
-    return CurveAnalysis(curve, terms.resolution, prepared.to_dict(), checks, prepared.u, ls,
-                         (least_squares_check(curve, ls), negative_check(curve, ls)))
+    # the cross-check judges the curve's own band; the band published also holds the misfit it measures
+    band_checks = (least_squares_check(curve, ls), negative_check(curve, ls))
+    return CurveAnalysis(curve.widened(misfit_share(curve, ls)), terms.resolution, prepared.to_dict(), checks,
+                         prepared.u, ls, band_checks)

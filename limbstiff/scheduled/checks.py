@@ -171,7 +171,8 @@ def negative_check(curve: ScheduleCurve, ls: LeastSquaresCurve | None = None) ->
         k = ls.stiffness[ls.informed & below]
         said = f" (the least-squares fit gives {k.min():.3g} to {k.max():.3g} there)"
     return Check("curve_negative", float(below.sum()), 0.0, False,
-                 f"the curve's band lies wholly below zero in {int(below.sum())} bins, at {_where(curve, below)}"
+                 f"the curve's own band (the model's, before the least-squares misfit is added) lies wholly below "
+                 f"zero in {int(below.sum())} bins, at {_where(curve, below)}"
                  f"{said}: a negative stiffness, which a limb does not have — the model does not fit the data "
                  "there; do not use the curve at those values", UNRELIABLE)
 

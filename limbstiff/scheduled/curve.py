@@ -15,6 +15,7 @@ cycle to cycle is that of each cycle's own mean in the bin. Pure numpy: no I/O.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,6 +57,9 @@ class ScheduleCurve:
         The posterior's band alone (before the envelope).
     adjacent_correlation : float
         Correlation of neighbouring bins' posterior draws (median over the pairs).
+    misfit : float
+        The error beyond the band measured against the least-squares cross-check, as a share of
+        the stiffness (:meth:`widened`; 0 before).
     """
 
     against: str
@@ -73,6 +77,17 @@ class ScheduleCurve:
     posterior_lo: np.ndarray
     posterior_hi: np.ndarray
     adjacent_correlation: float = 0.0
+    misfit: float = 0.0
+
+    def widened(self, misfit: float) -> "ScheduleCurve":
+        """The curve with its band widened by an error of ``misfit`` × the stiffness (sd) added in
+        quadrature to the posterior's (its half-width over its normal quantile), the envelope with
+        the band it had kept."""
+        from scipy.stats import norm
+        z = norm.isf((1 - self.level) / 2)
+        half = np.hypot((self.posterior_hi - self.posterior_lo) / 2, z * misfit * np.abs(self.stiffness))
+        return dataclasses.replace(self, lo=np.fmin(self.lo, self.stiffness - half),
+                                   hi=np.fmax(self.hi, self.stiffness + half), misfit=float(misfit))
 
     @property
     def count_name(self) -> str:
@@ -103,8 +118,9 @@ class ScheduleCurve:
                 "max": float(np.max(self.stiffness[ok])) if ok.any() else None,
                 "cycle_spread": None if self.against != "phase" else
                 {"p10": _floats(self.spread_lo), "p90": _floats(self.spread_hi)},
-                "band": {"from": "envelope of the posterior's band and the units' resampled means",
-                         "width_ratio": self.width_ratio}}
+                "band": {"from": "envelope of the posterior's band, the units' resampled means and the posterior's "
+                                 "widened by the misfit against the least-squares cross-check",
+                         "width_ratio": self.width_ratio, "misfit_share": self.misfit}}
 
     @property
     def width_ratio(self) -> float | None:

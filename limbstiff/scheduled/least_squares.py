@@ -30,8 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scipy.stats import norm
+
 from .. import cycles
-from .curve import MIN_BIN_CYCLES, adjacent_correlation
+from .curve import MIN_BIN_CYCLES, ScheduleCurve, adjacent_correlation
 
 #: Resamples of the units for the interval.
 RESAMPLES = 200
@@ -197,3 +199,23 @@ def curve_least_squares(filtered, prepared, edges: np.ndarray, observable: np.nd
     unit = np.unique(unit[use], return_inverse=True)[1]                  # numbered 0…U − 1
     return binned_least_squares(*signals[:, use], which=which, unit=unit, bins=bins, level=level,
                                 resolution=filtered.angle_resolution, rng=rng, how=how)
+
+
+def misfit_share(curve: ScheduleCurve, ls: LeastSquaresCurve) -> float:
+    """The curve's error beyond its band, measured against the least-squares fit, as a share of
+    the stiffness (rms over the bins where both are given; 0 when their differences are within
+    what the two bands explain).
+
+    Were the fit unbiased, E[(K_m − K_ls)²] = e² + σ_m² + σ_ls² in each bin, e the curve's own
+    error and σ each band's half-width over its normal quantile: the mean over the bins of
+    ((K_m − K_ls)² − σ_m² − σ_ls²)/K_m² estimates the mean squared relative error e²/K² that
+    the curve's band does not hold (a bias of the fit makes it larger: the band wider, not narrower).
+    """
+    both = curve.informed & ls.informed & (curve.stiffness != 0)
+    if not both.any():
+        return 0.0
+    z = norm.isf((1 - curve.level) / 2)
+    sm, sl = (curve.hi - curve.lo)[both] / (2 * z), (ls.hi - ls.lo)[both] / (2 * z)
+    d = (curve.stiffness - ls.stiffness)[both]
+    excess = np.mean((d * d - sm * sm - sl * sl) / curve.stiffness[both] ** 2)
+    return float(np.sqrt(excess)) if excess > 0 else 0.0
