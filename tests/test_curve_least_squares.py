@@ -175,3 +175,21 @@ def test_summary_csv_row_has_the_curve_verdict_blank_without_a_curve():
     assert summary_row(TrialOutcome("a", "a.csv", "ok", "", with_curve))["curve_verdict"] == "caution"
     plain = TrialRow.from_summary({"verdict": "ok", "by_phase": None})
     assert summary_row(TrialOutcome("b", "b.csv", "ok", "", plain))["curve_verdict"] is None
+
+
+def test_misfit_share_measures_the_error_the_band_does_not_hold():
+    """A curve 4 % off (rms, a slow wave over the phase) with a band of ±0.5 %: the misfit against
+    an honest least-squares fit is about 4 % (its own interval's spread subtracted), and the widened
+    band then holds the truth; a curve that is right gets (almost) none."""
+    from limbstiff.scheduled.least_squares import misfit_share
+    ls, k = _least_squares(11)
+    wave = 0.04 * np.sqrt(2) * np.sin(2 * np.pi * np.arange(BINS) / BINS * 3)       # rms 4 %
+    off = _curve(k * (1 + wave), k * (1 + wave) * 0.995, k * (1 + wave) * 1.005)
+    share = misfit_share(off, ls)
+    # the fit's own errors (about 1 %, bands of ±2–3 %) leave the estimate within a quarter of 4 %
+    assert share == pytest.approx(0.04, rel=0.25)
+    wide = off.widened(share)
+    assert wide.misfit == share and np.mean((wide.lo <= k) & (k <= wide.hi)) >= 0.85
+    assert np.mean((off.lo <= k) & (k <= off.hi)) < 0.2                # the band it had did not
+    right = _curve(k, k * 0.99, k * 1.01)
+    assert misfit_share(right, ls) < 0.01
