@@ -77,11 +77,11 @@ def curve_page(result):
         rows.append(("ensemble mean taken off", f"{100 * prepared['ensemble_mean_share_of_angle_variance']:.0f} % of "
                      "the angle's variance (the movement every cycle repeats)"))
     ratio = curve.width_ratio
+    ratio = curve.width_ratio
     rows.append((f"{100 * curve.level:.0f} % band", "the envelope of the estimate's own uncertainty (the walk, m, b, "
-                 f"the curve's weights) and of the {units} resampled whole"
-                 + ("" if ratio is None else f" ({ratio:.2f}× the estimate's own width, median)")
-                 + "; it does not hold what the model misses in every cycle alike: the least-squares points "
-                   "check that"))
+                 f"the curve's weights), of the {units} resampled whole, and of the misfit against the least-squares "
+                 f"points ({100 * curve.misfit:.0f} % of the stiffness, rms, added to the estimate's own)"
+                 + ("" if ratio is None else f": {ratio:.2f}× the estimate's own width (median)")))
     if analysis.least_squares is not None:
         rows.append(("least squares (points)", analysis.least_squares.how))
     passed = [c.message for c in (*analysis.checks, *analysis.band_checks) if c.passed]
