@@ -179,17 +179,22 @@ def test_summary_csv_row_has_the_curve_verdict_blank_without_a_curve():
 
 def test_misfit_share_measures_the_error_the_band_does_not_hold():
     """A curve 4 % off (rms, a slow wave over the phase) with a band of ±0.5 %: the misfit against
-    an honest least-squares fit is about 4 % (its own interval's spread subtracted), and the widened
-    band then holds the truth; a curve that is right gets (almost) none."""
+    an honest least-squares fit is an upper bound of that 4 %, and the widened band then holds the
+    truth; a curve that is right gets no more than the fit's own precision leaves open."""
     from limbstiff.scheduled.least_squares import misfit_share
-    ls, k = _least_squares(11)
-    wave = 0.04 * np.sqrt(2) * np.sin(2 * np.pi * np.arange(BINS) / BINS * 3)       # rms 4 %
-    off = _curve(k * (1 + wave), k * (1 + wave) * 0.995, k * (1 + wave) * 1.005)
-    share = misfit_share(off, ls)
-    # the fit's own errors (about 1 %, bands of ±2–3 %) leave the estimate within a quarter of 4 %
-    assert share == pytest.approx(0.04, rel=0.25)
-    wide = off.widened(share)
-    assert wide.misfit == share and np.mean((wide.lo <= k) & (k <= wide.hi)) >= 0.85
-    assert np.mean((off.lo <= k) & (k <= off.hi)) < 0.2                # the band it had did not
-    right = _curve(k, k * 0.99, k * 1.01)
-    assert misfit_share(right, ls) < 0.01
+    for seed in (11, 12):
+        ls, k = _least_squares(seed)
+        wave = 0.04 * np.sqrt(2) * np.sin(2 * np.pi * np.arange(BINS) / BINS * 3)       # rms 4 %
+        off = _curve(k * (1 + wave), k * (1 + wave) * 0.995, k * (1 + wave) * 1.005)
+        share = misfit_share(off, ls)
+        # an upper 90 % bound: at least the 4 %, and (the fit ~1 % precise, 50 bins) at most half more
+        # (measured 4.5–5.1 % on seeds 11–14)
+        assert 0.04 <= share <= 0.06
+        wide = off.widened(share)
+        assert wide.misfit == share and np.mean((wide.lo <= k) & (k <= wide.hi)) >= 0.85
+        assert np.mean((off.lo <= k) & (k <= off.hi)) < 0.2                # the band it had did not
+        right = _curve(k, k * 0.99, k * 1.01)
+        # the fit's own relative σ is ~1.1 %: a right curve's bound stays below three of them
+        # (measured 0–2.3 σ on seeds 11–14)
+        sigma = np.median((ls.hi - ls.lo) / (2 * 1.645) / k)
+        assert misfit_share(right, ls) < 3 * sigma

@@ -11,7 +11,7 @@ from scipy.stats import binom, norm
 
 from ..checks.verdict import UNRELIABLE, Check
 from .curve import ScheduleCurve
-from .least_squares import LeastSquaresCurve
+from .least_squares import LeastSquaresCurve, effective_bins
 from .resolution import ResolutionScore
 
 #: Held-out units predicted with this much more error variance than the model expects of itself
@@ -91,13 +91,6 @@ def _where(curve: ScheduleCurve, mask: np.ndarray, most: int = 6) -> str:
     unit = "" if curve.against == "phase" or curve.unit == "1" else f" {curve.unit}"
     more = "" if len(runs) <= most else f" and {len(runs) - most} more stretches"
     return f"{curve.against} " + ", ".join(f"{a:.3g}–{b:.3g}" for a, b in runs[:most]) + unit + more
-
-
-def effective_bins(n: int, correlation: float) -> float:
-    """The independent comparisons ``n`` bins are worth when neighbours' errors correlate
-    ``correlation``: n·(1 − ρ)/(1 + ρ) (the effective size of an AR(1) mean), at least 1."""
-    rho = float(np.clip(correlation, 0.0, 0.99))
-    return max(1.0, n * (1 - rho) / (1 + rho))
 
 
 def chance_share(n: int, correlation: float, level: float) -> float:

@@ -201,21 +201,34 @@ def curve_least_squares(filtered, prepared, edges: np.ndarray, observable: np.nd
                                 resolution=filtered.angle_resolution, rng=rng, how=how)
 
 
+def effective_bins(n: int, correlation: float) -> float:
+    """The independent comparisons ``n`` bins are worth when neighbours' errors correlate
+    ``correlation``: n·(1 − ρ)/(1 + ρ) (the effective size of an AR(1) mean), at least 1."""
+    rho = float(np.clip(correlation, 0.0, 0.99))
+    return max(1.0, n * (1 - rho) / (1 + rho))
+
+
 def misfit_share(curve: ScheduleCurve, ls: LeastSquaresCurve) -> float:
     """The curve's error beyond its band, measured against the least-squares fit, as a share of
-    the stiffness (rms over the bins where both are given; 0 when their differences are within
-    what the two bands explain).
+    the stiffness (rms over the bins where both are given): the largest the data do not exclude.
 
     Were the fit unbiased, E[(K_m − K_ls)²] = e² + σ_m² + σ_ls² in each bin, e the curve's own
     error and σ each band's half-width over its normal quantile: the mean over the bins of
-    ((K_m − K_ls)² − σ_m² − σ_ls²)/K_m² estimates the mean squared relative error e²/K² that
-    the curve's band does not hold (a bias of the fit makes it larger: the band wider, not narrower).
+    t = ((K_m − K_ls)² − σ_m² − σ_ls²)/K_m² estimates the mean squared relative error e²/K² that
+    the curve's band does not hold (a bias of the fit makes it larger: the band wider, not
+    narrower). Its upper one-sided bound at the curve's level is taken — the mean plus that many
+    standard errors of t over the bins' effective number (neighbours correlate as the two bands'
+    draws do) — so that a fit less precise than the curve cannot vouch for the curve's band; 0
+    when even that is negative.
     """
     both = curve.informed & ls.informed & (curve.stiffness != 0)
-    if not both.any():
+    if both.sum() < 2:
         return 0.0
     z = norm.isf((1 - curve.level) / 2)
     sm, sl = (curve.hi - curve.lo)[both] / (2 * z), (ls.hi - ls.lo)[both] / (2 * z)
     d = (curve.stiffness - ls.stiffness)[both]
-    excess = np.mean((d * d - sm * sm - sl * sl) / curve.stiffness[both] ** 2)
-    return float(np.sqrt(excess)) if excess > 0 else 0.0
+    t = (d * d - sm * sm - sl * sl) / curve.stiffness[both] ** 2
+    var_m, var_ls = np.median(sm * sm), np.median(sl * sl)
+    rho = (curve.adjacent_correlation * var_m + ls.adjacent_correlation * var_ls) / max(var_m + var_ls, 1e-300)
+    upper = t.mean() + norm.isf(1 - curve.level) * t.std(ddof=1) / np.sqrt(effective_bins(len(t), rho))
+    return float(np.sqrt(upper)) if upper > 0 else 0.0
