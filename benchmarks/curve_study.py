@@ -1,6 +1,6 @@
 """Stiffness by phase and by schedule on an independent generator (issue 36).
 
-    python benchmarks/curve_study.py [--quick] [--jobs 2]
+    python benchmarks/curve_study.py [--quick] [--jobs 2] [--before]
 
 The trials come from ``benchmarks/ensemble_sim.py``, written by a helper who never read limbstiff's
 method: repeated-cycle ensembles (sinusoidal, gait-like and stepped stiffness over the phase;
@@ -18,6 +18,15 @@ verdicts recorded). Pooled over the trials with at least 40 cycles (and the sche
 median and 90th percentile of the errors, the coverage, the width. One timing: a 100-cycle ensemble
 of 1.5 s cycles analysed as an ensemble and as one 150 s trial, CPU time of each (medians of
 alternating runs are not taken: one run each; the ratio is stated with that caveat).
+
+Issue 46: each curve's own verdict (before it had one, the trial's, which its page said applies to
+the curve), the least-squares cross-check and the least-squares curve's own error; pooled, the
+share of curves said ``ok``, the coverage among them (bins whose band holds the truth, with a 95 %
+Wilson interval), their median error, and every ``ok`` curve whose band holds the truth on fewer
+than :data:`OK_COVERAGE` of its bins. Four trials of ``benchmarks/generators/ensembles.py`` (a
+sharp stiffness trough, 25–45 ms reflexes, small perturbations on large imposed cycles) join
+the study. ``--before`` stores the run's figures as the ``before`` block of the JSON (run on the
+library before issue 46); later runs keep that block and print both.
 
 Writes section ``curve-study`` of ``benchmarks/RESULTS.md`` and ``benchmarks/curve_study.json``.
 """
@@ -43,6 +52,33 @@ import ensemble_sim  # noqa: E402
 
 #: Cycles at least for the issue's targets.
 TARGET_CYCLES = 40
+#: Issue 46: an ``ok`` curve's band holds the truth on at least this share of its bins.
+OK_COVERAGE = 0.85
+#: Trials of ``benchmarks/generators/ensembles.py`` added to the study (scenario, seed).
+GENERATED = (("trough", 0), ("reflex", 0), ("trough_reflex", 0), ("trough_reflex", 1))
+
+
+def _cases(quick: bool) -> list[tuple[str, dict]]:
+    """``ensemble_sim.cases`` and the :data:`GENERATED` trials (the first two with ``quick``)."""
+    extra = [(f"gen_{sc}_s{seed}", {"generator": "ensembles", "scenario": sc, "seed": seed})
+             for sc, seed in (GENERATED[:2] if quick else GENERATED)]
+    return ensemble_sim.cases(quick=quick) + extra
+
+
+class _Generated:
+    """A ``benchmarks/generators/ensembles.py`` trial with the fields the study reads."""
+
+    def __init__(self, kwargs: dict):
+        from generators.ensembles import scenario_trial
+        self.trial = scenario_trial(kwargs["scenario"], kwargs["seed"])
+        settings = self.trial.params["settings"]
+        self.truth_grid, self.truth_curve = self.trial.truth_grid, self.trial.truth_curve
+        self.inertia, self.damping = settings["inertia"], settings["damping"]
+        self.n_cycles = settings["n_cycles"]
+
+    def write(self, folder: Path) -> Path:
+        from generators._common import write_trial_csv
+        return write_trial_csv(self.trial, folder)
 
 
 def _protocol(kind: str):
@@ -66,11 +102,15 @@ def _truth_in_bins(trial, curve) -> np.ndarray:
 
 def run_case(name: str, kwargs: dict) -> dict:
     import limbstiff
-    trial = ensemble_sim.make(kwargs)
-    kind = "phase" if "shape" in kwargs else "schedule"
+    generated = kwargs.get("generator") == "ensembles"
+    trial = _Generated(kwargs) if generated else ensemble_sim.make(kwargs)
+    kind = "phase" if "shape" in kwargs or generated else "schedule"
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / f"{name}.csv"
-        ensemble_sim.write_csv(trial, path)
+        if generated:
+            path = trial.write(Path(tmp))
+        else:
+            path = Path(tmp) / f"{name}.csv"
+            ensemble_sim.write_csv(trial, path)
         t0 = time.process_time()
         try:
             result = limbstiff.analyze(path, _protocol(kind))
@@ -80,14 +120,15 @@ def run_case(name: str, kwargs: dict) -> dict:
             if named:
                 result = limbstiff.analyze(path, _protocol(kind).override(effects=("reflex",)))
         except limbstiff.errors.LimbstiffError as exc:
-            return {"name": name, "kind": kind, "error": str(exc), **_meta(kwargs)}
+            return {"name": name, "kind": kind, "error": str(exc), **_meta(kwargs, trial)}
         cpu = time.process_time() - t0
     curve = result.by_phase if kind == "phase" else result.by_schedule
     truth = _truth_in_bins(trial, curve)
     ok = curve.informed
     err = np.abs(curve.stiffness[ok] - truth[ok]) / truth[ok]
     inside = (truth[ok] >= curve.lo[ok]) & (truth[ok] <= curve.hi[ok])
-    return {"name": name, "kind": kind, **_meta(kwargs), "cpu_s": cpu, "verdict": result.verdict,
+    return {"name": name, "kind": kind, **_meta(kwargs, trial), "cpu_s": cpu, "verdict": result.verdict,
+            **_curve_verdict(result, truth),
             "first_verdict": first, "rerun_with_reflex": named,
             "reasons": list(result.checks.reasons), "knots": int(result.curve.resolution.chosen),
             "bins": int(ok.sum()), "median_error": float(np.median(err)), "p90_error": float(np.percentile(err, 90)),
@@ -96,9 +137,35 @@ def run_case(name: str, kwargs: dict) -> dict:
             "inertia": [result.inertia.median, trial.inertia], "damping": [result.damping.median, trial.damping]}
 
 
-def _meta(kwargs: dict) -> dict:
+def _meta(kwargs: dict, trial=None) -> dict:
+    if kwargs.get("generator") == "ensembles":
+        return {"n_cycles": trial.n_cycles, "shape": kwargs["scenario"], "reflex": "reflex" in kwargs["scenario"],
+                "perturbation": "prbs (small, on imposed cycles)", "sweep": None}
     return {"n_cycles": kwargs.get("n_cycles"), "shape": kwargs.get("shape"), "reflex": kwargs.get("reflex"),
             "perturbation": kwargs.get("perturbation"), "sweep": kwargs.get("sweep")}
+
+
+def _curve_verdict(result, truth: np.ndarray) -> dict:
+    """The curve's own verdict and reasons (before issue 46 there were none: the trial's, which
+    the curve's page said applies to the curve), the least-squares cross-check and the
+    least-squares curve's own error against the truth (None before)."""
+    analysis = result.curve
+    own = getattr(analysis, "verdict", None)
+    out = {"curve_verdict": str(own if own is not None else result.verdict),
+           "curve_verdict_from": "curve" if own is not None else "trial",
+           "curve_reasons": list(analysis.reasons if own is not None else result.checks.reasons),
+           "cross_check": None, "ls_median_error": None, "ls_bins": 0,
+           "width_ratio": getattr(analysis.curve, "width_ratio", None)}
+    ls = getattr(analysis, "least_squares", None)
+    if ls is not None:
+        check = next(c for c in analysis.band_checks if c.name == "curve_least_squares")
+        out["cross_check"] = {"passed": check.passed, "value": check.value, "threshold": check.threshold,
+                              "message": check.message}
+        use = np.isfinite(ls.stiffness)
+        if use.any():
+            out["ls_median_error"] = float(np.median(np.abs(ls.stiffness[use] - truth[use]) / truth[use]))
+            out["ls_bins"] = int(use.sum())
+    return out
 
 
 def timing() -> dict:
@@ -146,12 +213,14 @@ def real_ankle() -> list[dict]:
                     "curve_max": float(curve.stiffness[ok].max()), "n_cycles": ens.curve.prepared["n_cycles"],
                     "knots": int(ens.curve.resolution.chosen),
                     "flat_share": float(np.mean((curve.lo[ok] <= med) & (med <= curve.hi[ok]))),
-                    "curve_verdict": ens.verdict, "curve_reasons": list(ens.checks.reasons), "cpu_s": cpu})
+                    "trial_verdict": ens.verdict, "curve_verdict": str(getattr(ens.curve, "verdict", None) or ens.verdict),
+                    "curve_reasons": list(getattr(ens.curve, "reasons", None) or ens.checks.reasons), "cpu_s": cpu})
     return out
 
 
 def pooled(rows: list[dict], kind: str) -> dict:
-    use = [r for r in rows if r["kind"] == kind and "error" not in r and (kind != "phase" or r["n_cycles"] >= TARGET_CYCLES)]
+    use = [r for r in rows if r["kind"] == kind and "error" not in r and not r["name"].startswith("gen_")
+           and (kind != "phase" or r["n_cycles"] >= TARGET_CYCLES)]
     if not use:
         return {}
     err = np.concatenate([r["errors"] for r in use])
@@ -162,18 +231,90 @@ def pooled(rows: list[dict], kind: str) -> dict:
             "verdicts": {v: sum(r["verdict"] == v for r in use) for v in ("ok", "caution", "unreliable")}}
 
 
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Two-sided 95 % Wilson score interval of a proportion k/n."""
+    if n == 0:
+        return (float("nan"), float("nan"))
+    p, d = k / n, 1 + z * z / n
+    c, h = (p + z * z / (2 * n)) / d, z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
+    return (max(0.0, c - h), min(1.0, c + h))
+
+
+def ok_figures(rows: list[dict]) -> dict:
+    """Issue 46's figures over ``rows``: the share of curves said ``ok``, the coverage among them
+    (bins pooled, 95 % Wilson interval), their median error (bins pooled), the band's median relative
+    width, and every ``ok`` curve whose band holds the truth on fewer than :data:`OK_COVERAGE` of its bins."""
+    done = [r for r in rows if "error" not in r]
+    ok = [r for r in done if r["curve_verdict"] == "ok"]
+    inside = np.concatenate([r["inside"] for r in ok]) if ok else np.zeros(0)
+    k, n = int(inside.sum()), int(inside.size)
+    ls = [r["ls_median_error"] for r in done if r.get("ls_median_error") is not None]
+    ratios = [r["width_ratio"] for r in done if r.get("width_ratio") is not None]
+    return {"curves": len(done), "ok": len(ok), "ok_share": len(ok) / len(done) if done else None,
+            "ls_median_error": float(np.median(ls)) if ls else None,
+            "width_ratio": float(np.median(ratios)) if ratios else None,
+            "cross_check_failed": sum(1 for r in done if r.get("cross_check") and not r["cross_check"]["passed"]),
+            "ok_bins": n, "ok_coverage": k / n if n else None, "ok_coverage_wilson": list(wilson(k, n)),
+            "ok_median_error": float(np.median(np.concatenate([r["errors"] for r in ok]))) if ok else None,
+            "relative_width": float(np.median([r["relative_width"] for r in done])) if done else None,
+            "exceptions": [{"name": r["name"], "coverage": r["coverage"]} for r in ok if r["coverage"] < OK_COVERAGE],
+            "rows": [{k: r[k] for k in ("name", "curve_verdict", "coverage", "median_error", "relative_width")}
+                     for r in done]}
+
+
+def _ok_lines(out: dict) -> list[str]:
+    """Issue 46's table: the figures before (the ``before`` block) and now."""
+    lines = ["\nIssue 46 — curves said `ok` (the curve's own verdict; before issue 46 the trial's), all curves:\n",
+             "| run | curves | said ok | coverage among ok [95 % Wilson] | median error among ok | band width | "
+             "ok curves holding the truth on < 85 % of bins |", "|---|---|---|---|---|---|---|"]
+    for label, fig in (("before", out.get("before", {}).get("ok")), ("now", out.get("ok"))):
+        if not fig:
+            continue
+        cov = "–" if fig["ok_coverage"] is None else (
+            f"{100 * fig['ok_coverage']:.0f} % [{100 * fig['ok_coverage_wilson'][0]:.0f}, "
+            f"{100 * fig['ok_coverage_wilson'][1]:.0f}] of {fig['ok_bins']} bins")
+        err = "–" if fig["ok_median_error"] is None else f"{100 * fig['ok_median_error']:.1f} %"
+        exc = ", ".join(f"{e['name']} ({100 * e['coverage']:.0f} %)" for e in fig["exceptions"]) or "none"
+        lines.append(f"| {label} | {fig['curves']} | {fig['ok']} ({100 * fig['ok_share']:.0f} %) | {cov} | {err} | "
+                     f"{100 * fig['relative_width']:.1f} % | {exc} |")
+    now = out.get("ok") or {}
+    if now.get("ls_median_error") is not None:
+        lines.append(f"\nNow: the least-squares cross-check failed on {now['cross_check_failed']} of {now['curves']} curves; "
+                     f"the least-squares curve's own median error (median over the curves) "
+                     f"{100 * now['ls_median_error']:.1f} %; the band's width over the posterior's alone "
+                     f"(median over the curves of each curve's median over its bins) {now['width_ratio']:.2f}.")
+    return lines
+
+
+def _verdict_cell(r: dict) -> str:
+    return r.get("curve_verdict", "–") + (" (the trial's)" if r.get("curve_verdict_from") == "trial" else "")
+
+
+def _cross_cell(r: dict) -> str:
+    c = r.get("cross_check")
+    return "–" if c is None else ("agrees" if c["passed"] else f"disagrees ({c['value']:.0f} bins)")
+
+
+def _ls_cell(r: dict) -> str:
+    e = r.get("ls_median_error")
+    return "–" if e is None else f"{100 * e:.1f} % ({r['ls_bins']} bins)"
+
+
 def section(out: dict) -> str:
     """The ``curve-study`` section of RESULTS.md from a run's results (``curve_study.json``)."""
     rows = out["rows"]
-    lines = ["| trial | cycles | knots | median error | p90 | coverage | width | verdict (first, if rerun with --effect reflex) |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = ["| trial | cycles | knots | median error | p90 | coverage | width | verdict (first, if rerun with --effect reflex) "
+             "| curve verdict | cross-check | least squares: median error |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['name']} | {r['n_cycles']} | – | error: {r['error']} | | | | |")
+            lines.append(f"| {r['name']} | {r['n_cycles']} | – | error: {r['error']} | | | | | | | |")
             continue
         lines.append(f"| {r['name']} | {r['n_cycles'] or '–'} | {r['knots']} | {100 * r['median_error']:.1f} % | "
                      f"{100 * r['p90_error']:.1f} % | {100 * r['coverage']:.0f} % | {100 * r['relative_width']:.1f} % | "
-                     f"{r['verdict']}{' (' + r['first_verdict'] + ')' if r['rerun_with_reflex'] else ''} |")
+                     f"{r['verdict']}{' (' + r['first_verdict'] + ')' if r['rerun_with_reflex'] else ''} | "
+                     f"{_verdict_cell(r)} | {_cross_cell(r)} | "
+                     f"{_ls_cell(r)} |")
     for kind in ("phase", "schedule"):
         p = out[f"by_{kind}"]
         if p:
@@ -181,7 +322,9 @@ def section(out: dict) -> str:
                          f"{100 * p['median_error']:.1f} %, 90th percentile {100 * p['p90_error']:.1f} %, coverage "
                          f"{100 * p['coverage']:.0f} %, band width {100 * p['relative_width']:.1f} % of the stiffness; "
                          f"verdicts {p['verdicts']}.")
-    done = [r for r in rows if "error" not in r]
+    lines += _ok_lines(out)
+    # issue 36's figures: ensemble_sim's trials (the generated ones are issue 46's, above)
+    done = [r for r in rows if "error" not in r and not r["name"].startswith("gen_")]
     wrong = [r for r in done if r["median_error"] > 0.05]
     ok = [r for r in done if r["verdict"] == "ok"]
     lines.append(f"\nTrials whose curve is more than 5 % off (median over its bins): {len(wrong)} of {len(done)}, "
@@ -216,20 +359,27 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--no-timing", action="store_true")
     ap.add_argument("--from-json", action="store_true", help="rewrite the section from curve_study.json only")
+    ap.add_argument("--before", action="store_true", help="store this run's figures as the JSON's `before` block")
     args = ap.parse_args()
     if args.from_json:
         text = section(json.loads((HERE / "curve_study.json").read_text()))
         update_section("curve-study", text)
         print(text)
         return
-    cases = ensemble_sim.cases(quick=args.quick)
+    cases = _cases(args.quick)
+    previous = json.loads((HERE / "curve_study.json").read_text()) if (HERE / "curve_study.json").exists() else {}
     t0 = time.time()
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = list(pool.map(run_case, *zip(*cases)))
     out = {"machine": machine(), "quick": args.quick, "wall_s": time.time() - t0, "rows": rows,
-           "by_phase": pooled(rows, "phase"), "by_schedule": pooled(rows, "schedule"), "timing": None}
+           "by_phase": pooled(rows, "phase"), "by_schedule": pooled(rows, "schedule"), "timing": None,
+           "ok": ok_figures(rows)}
+    out["before"] = ({"ok": out["ok"], "by_phase": out["by_phase"], "by_schedule": out["by_schedule"],
+                      "wall_s": out["wall_s"]} if args.before else previous.get("before", {}))
     (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
-    if not args.no_timing:
+    if args.no_timing:                  # the last measured timing is kept, said as such by its commit
+        out["timing"] = previous.get("timing")
+    else:
         out["timing"] = timing()
         (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
     out["real_ankle"] = real_ankle()

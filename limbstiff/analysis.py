@@ -241,14 +241,15 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
                             noise=course.noise, coupling=coupling, corrected=corrected, angle_terms=angle,
                             torque_scale=_torque_scale(protocol, course.filtered.variant))
     reflex = reflex_check(_reflex_shift(course, ident, observable, level))
-    curve = spec.curve and curve_analysis(prepared, spec.curve, estimate, ident, observable=observable,
-                                          stiffness=stiffness, level=level, seed=seed)
+    curve = spec.curve and curve_analysis(prepared, spec.curve, estimate, ident, filtered=signals.filtered,
+                                          observable=observable, stiffness=stiffness, level=level, seed=seed)
     informed = informed_samples(observable)
     shape = velocity_shape_check(miss, stiffness=float(np.median(stiffness[informed])),
                                  half_width=float(np.median((hi - lo)[informed])) / 2, level=level)
     more = tuple(c for c in (reflex, shape, median_sign(figures.median_stiffness)) if c is not None)
     more += curve.checks if curve else ()
     checks = units_checks(ModelChecks(checks.checks + more), implausible_inertia(trial, protocol, ident, found))
+    curve = curve and dataclasses.replace(curve, trial_checks=checks)
     return StiffnessResult(
         trial=trial, variant=signals.filtered.variant, estimator=protocol.estimator, stiffness=stiffness,
         stiffness_lo=lo, stiffness_hi=hi, observable=observable,

@@ -1,7 +1,11 @@
 """The stiffness curve of an analysis as a result: :class:`CurveAnalysis` and how it is made.
 
 :func:`curve_analysis` pools the analysis's course into the curve against the cycle's phase or a
-recorded schedule (:func:`limbstiff.scheduled.curve.schedule_curve`), with its band and its checks.
+recorded schedule (:func:`limbstiff.scheduled.curve.schedule_curve`), with its band, its checks,
+the least-squares cross-check (:mod:`limbstiff.scheduled.least_squares`) and its own verdict: the
+worst of the trial's verdict (the curve is the trial's course pooled, so every reason of the trial
+concerns it) and of the checks of whether its band can be trusted (``curve_least_squares``,
+``curve_negative``: these concern the curve alone and do not change the trial's verdict).
 The result answers the protocol every result of the package answers: ``to_dict()`` (the
 ``by_phase`` / ``by_schedule`` block of ``summary.json``), ``to_frame()``
 (``stiffness_by_phase.csv`` / ``stiffness_by_schedule.csv``), ``plot(ax=…)`` and ``report()``. It
@@ -15,10 +19,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .checks.verdict import Check
+from .checks.verdict import Check, ModelChecks, Verdict
 from .files.outputs import jsonable
-from .scheduled.checks import disagree_check, heldout_check, motion_check, unit_errors
+from .scheduled.checks import (disagree_check, heldout_check, least_squares_check, motion_check, negative_check,
+                               unit_errors)
 from .scheduled.curve import ScheduleCurve, schedule_curve
+from .scheduled.least_squares import LeastSquaresCurve, curve_least_squares, misfit_share
 from .scheduled.fit import ScheduleTerms
 from .scheduled.prepare import ScheduleInput
 from .scheduled.resolution import Resolution
@@ -42,8 +48,17 @@ class CurveAnalysis:
     prepared : dict
         How the cycles were cut or the schedule read (:meth:`ScheduleInput.to_dict`).
     checks : tuple of Check
+        The curve's checks that are the trial's too (``curve_heldout``, ``curve_outlier_units``,
+        ``curve_coverage``).
     u : ndarray, shape (n,)
         The phase or the schedule at every sample of the (cropped) trial.
+    least_squares : LeastSquaresCurve or None
+        The least-squares cross-check by bin.
+    band_checks : tuple of Check
+        Whether the curve's band can be trusted (``curve_least_squares``, ``curve_negative``): the
+        curve's verdict only.
+    trial_checks : ModelChecks or None
+        The trial's checks (set by the analysis once they are final).
     """
 
     curve: ScheduleCurve
@@ -51,6 +66,25 @@ class CurveAnalysis:
     prepared: dict
     checks: tuple[Check, ...]
     u: np.ndarray
+    least_squares: LeastSquaresCurve | None = None
+    band_checks: tuple[Check, ...] = ()
+    trial_checks: ModelChecks | None = None
+
+    @property
+    def verdict(self) -> Verdict:
+        """The curve's own verdict: the worst of the trial's and of its :attr:`band_checks`."""
+        trial = self.trial_checks.verdict if self.trial_checks is not None else Verdict.worst(
+            c.severity for c in self.checks if not c.passed)
+        return Verdict.worst([trial, *(c.severity for c in self.band_checks if not c.passed)])
+
+    @property
+    def reasons(self) -> tuple[str, ...]:
+        """Why the curve is not ``ok``: its band checks' messages (the most severe first), then the
+        trial's reasons, the curve's own checks among them first."""
+        own = [c for c in (*self.band_checks, *self.checks) if not c.passed]
+        first = [c.message for c in sorted(own, key=lambda c: -c.severity.code)]
+        trial = self.trial_checks.reasons if self.trial_checks is not None else ()
+        return tuple(first + [r for r in trial if r not in first])
 
     def binned(self, values: np.ndarray, informed: np.ndarray) -> np.ndarray:
         """The mean of ``values`` (n,) over the ``informed`` samples in each of the curve's bins
@@ -86,15 +120,24 @@ class CurveAnalysis:
 
     def to_dict(self) -> dict:
         """JSON-ready (``by_phase`` / ``by_schedule`` of ``summary.json``)."""
-        return jsonable({**self.curve.to_dict(), "resolution": self.resolution.to_dict(), **self.prepared})
+        ls = None if self.least_squares is None else self.least_squares.to_dict()
+        return jsonable({**self.curve.to_dict(), "resolution": self.resolution.to_dict(), **self.prepared,
+                         "verdict": self.verdict, "reasons": list(self.reasons),
+                         "checks": [c.to_dict() for c in (*self.checks, *self.band_checks)], "least_squares": ls})
 
     def to_frame(self):
         """The curve's table (``stiffness_by_phase.csv`` / ``stiffness_by_schedule.csv``) as a
-        :class:`pandas.DataFrame` (:meth:`ScheduleCurve.to_frame`)."""
-        return self.curve.to_frame()
+        :class:`pandas.DataFrame` (:meth:`ScheduleCurve.to_frame`), with the least-squares
+        cross-check's ``ls_stiffness``, ``ls_stiffness_lo``, ``ls_stiffness_hi`` (N·m/rad; blank
+        where it is not informed)."""
+        frame = self.curve.to_frame()
+        if self.least_squares is not None:
+            ls = self.least_squares
+            frame = frame.assign(ls_stiffness=ls.stiffness, ls_stiffness_lo=ls.lo, ls_stiffness_hi=ls.hi)
+        return frame
 
     def plot(self, ax=None, *, unit_stiffness: str = "N·m/rad", legend: bool = True):
-        """Draw the curve, its band and (ensembles) the cycles' spread into a matplotlib axes
+        """Draw the curve, its band, (ensembles) the cycles' spread and the least-squares points into a matplotlib axes
         (:func:`limbstiff.report.curve.plot_curve`); pyplot's current axes when ``ax`` is omitted.
 
         Returns
@@ -102,11 +145,12 @@ class CurveAnalysis:
         matplotlib.axes.Axes
         """
         from .report.curve import plot_curve
-        return plot_curve(self.curve, ax=ax, unit_stiffness=unit_stiffness, legend=legend)
+        return plot_curve(self.curve, ax=ax, unit_stiffness=unit_stiffness, legend=legend,
+                          least_squares=self.least_squares)
 
     def report(self, *, unit_stiffness: str = "N·m/rad") -> str:
-        """The curve in words: what it is pooled over, its resolution, its median and range over
-        the informed bins, and its checks."""
+        """The curve in words: its verdict and reasons, what it is pooled over, its resolution, its
+        median and range over the informed bins."""
         from .digest import number
         d, res = self.curve.to_dict(), self.resolution
         units = "cycles" if self.against == "phase" else "stretches"
@@ -117,18 +161,23 @@ class CurveAnalysis:
         figures = ("no bin is informed" if d["median"] is None else
                    f"median {number(d['median'], unit_stiffness)}, from {number(d['min'])} to "
                    f"{number(d['max'], unit_stiffness)} ({level})")
-        lines = [f"Stiffness by {'phase of the cycle' if self.against == 'phase' else 'schedule'}, pooled over "
-                 f"{over}: {figures}.", f"Resolution: {knots}, chosen by predicting left-out {units}."]
-        lines += [f"{c.name}: {'ok' if c.passed else 'FAILED'}: {c.message}" for c in self.checks]
+        lines = [f"Curve verdict: {self.verdict}" + ("" if self.reasons else " (its checks and the least-squares "
+                                                                         "cross-check pass)")]
+        lines += [f"  - {r}" for r in self.reasons]
+        lines += [f"Stiffness by {'phase of the cycle' if self.against == 'phase' else 'schedule'}, pooled over "
+                  f"{over}: {figures}.", f"Resolution: {knots}, chosen by predicting left-out {units}."]
         return "\n".join(lines)
 
 
-def curve_analysis(prepared: ScheduleInput, terms: ScheduleTerms, estimate, ident, *, observable: np.ndarray,
-                   stiffness: np.ndarray, level: float, seed: int) -> CurveAnalysis:
-    """The curve pooled from the analysis's course, its band, and its checks."""
+def curve_analysis(prepared: ScheduleInput, terms: ScheduleTerms, estimate, ident, *, filtered,
+                   observable: np.ndarray, stiffness: np.ndarray, level: float, seed: int) -> CurveAnalysis:
+    """The curve pooled from the analysis's course, its band, its checks and the least-squares
+    cross-check on the analysis's ``filtered`` signals."""
     curve = schedule_curve(estimate, ident, against=prepared.against, u=prepared.u, cycle=prepared.cycle,
-                           observable=observable, stiffness=stiffness, level=level, unit=prepared.unit,
-                           knots=terms.basis.knots, rng=np.random.default_rng([seed, 36]))
+                           units=prepared.held_out, observable=observable, stiffness=stiffness, level=level,
+                           unit=prepared.unit, knots=terms.basis.knots, rng=np.random.default_rng([seed, 36]))
+    ls = curve_least_squares(filtered, prepared, curve.edges, observable, level=level,
+                             rng=np.random.default_rng([seed, 46]))
     noun = "cycles" if prepared.against == "phase" else "stretches"
     score = terms.resolution.score_of(terms.resolution.chosen)
     starts = None
@@ -140,4 +189,7 @@ def curve_analysis(prepared: ScheduleInput, terms: ScheduleTerms, estimate, iden
     unit[:GUARD_STEPS] = -1                       # the filter's diffuse start
     errors = unit_errors(e[0], var, unit)
     checks = (heldout_check(score, noun=noun), disagree_check(errors, noun=noun, first_s=starts), motion_check(curve))
-    return CurveAnalysis(curve, terms.resolution, prepared.to_dict(), checks, prepared.u)
+    # the cross-check judges the curve's own band; the band published also holds the misfit it measures
+    band_checks = (least_squares_check(curve, ls), negative_check(curve, ls))
+    return CurveAnalysis(curve.widened(misfit_share(curve, ls)), terms.resolution, prepared.to_dict(), checks,
+                         prepared.u, ls, band_checks)

@@ -276,7 +276,7 @@ def test_units_and_kind_in_the_outputs_and_a_batch_of_mixed_kinds_says_so(tmp_pa
     header = (out / "summary.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
     # appended after the columns docs/interface.md had: their order is a contract
     assert tuple(header[:len(SUMMARY_COLUMNS)]) == SUMMARY_COLUMNS
-    assert SUMMARY_COLUMNS[-4:] == ("kind", "stiffness_unit", "inertia_unit", "damping_unit")
+    assert SUMMARY_COLUMNS[-5:] == ("kind", "stiffness_unit", "inertia_unit", "damping_unit", "curve_verdict")
     assert SUMMARY_COLUMNS[SUMMARY_COLUMNS.index("kind") - 1] == "stiffness_torque_slope_hi"
     assert all(h.startswith("meta.") for h in header[len(SUMMARY_COLUMNS):])
     table = pd.read_csv(out / "summary.csv", keep_default_na=False).set_index("trial")

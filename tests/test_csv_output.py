@@ -150,7 +150,7 @@ def test_write_result_writes_what_pandas_wrote(tmp_path):
     by_phase = pd.DataFrame({"phase": at, "stiffness": np.where(at < 0.1, np.nan, 60 + np.sin(at)),
                              "stiffness_lo": 55 + at, "stiffness_hi": 65 + at, "n_cycles": np.arange(50)})
     result = SimpleNamespace(columns=lambda: dict(per_sample), to_dict=lambda: {"ok": True},
-                             curve=SimpleNamespace(against="phase", curve=SimpleNamespace(to_frame=lambda: by_phase.copy())))
+                             curve=SimpleNamespace(against="phase", to_frame=lambda: by_phase.copy()))
     write_result(result, tmp_path)
     assert (tmp_path / STIFFNESS_CSV).read_bytes() == _old_write(per_sample)
     assert (tmp_path / CURVE_CSV["phase"]).read_bytes() == _old_write(by_phase)

@@ -89,7 +89,8 @@ def test_ensemble_through_the_cli(ensemble_run):
     run, out = ensemble_run
     assert run.exit_code == 0, run.output
     frame = pd.read_csv(out / "strides" / "stiffness_by_phase.csv")
-    assert list(frame.columns) == ["phase", "stiffness", "stiffness_lo", "stiffness_hi", "n_cycles"]
+    assert list(frame.columns) == ["phase", "stiffness", "stiffness_lo", "stiffness_hi", "n_cycles", "ls_stiffness",
+                                   "ls_stiffness_lo", "ls_stiffness_hi"]
     informed = frame["stiffness"].notna()
     assert informed.mean() > 0.8
     assert (frame["n_cycles"][informed] == 8).all()
@@ -98,6 +99,7 @@ def test_ensemble_through_the_cli(ensemble_run):
     assert (out / "strides" / "stiffness.csv").is_file() and not (out / "strides" / "report.pdf").exists()
     table = pd.read_csv(out / "summary.csv")
     assert len(table) == 1 and table["trial"][0] == "strides" and table["status"][0] == "ok"
+    assert table["curve_verdict"][0] == summary["by_phase"]["verdict"]
 
 
 def test_ensemble_outputs_are_not_replaced_without_overwrite(ensemble_run, tmp_path):
@@ -185,15 +187,20 @@ def test_page_one_under_a_curve_names_the_perturbation_beside_the_task_cycles(en
     assert "the task's cycles are 1 s" in ensemble_result.report()
 
 
-def test_the_curve_page_carries_the_trials_verdict(ensemble_result):
-    """The curve's page says the trial's verdict with its reasons (the curve's own failed checks
-    first), not a list of ``ok`` checks beside it."""
-    from limbstiff.digest import verdict_line
+def test_the_curve_page_carries_the_curves_own_verdict(ensemble_result):
+    """The curve's page says the curve's own verdict (issue 46: at least the trial's) with its
+    reasons, not a list of ``ok`` checks beside it, and draws the least-squares points."""
+    from limbstiff.digest import VERDICT_WORDS
     from limbstiff.report.curve import curve_page
-    words = _words(curve_page(ensemble_result))
-    word, meaning, _ = verdict_line(ensemble_result)
-    assert f"Verdict: {word}" in words and meaning in words
-    for reason in ensemble_result.checks.reasons:
+    curve = ensemble_result.curve
+    fig = curve_page(ensemble_result)
+    words = _words(fig)
+    word, meaning, _ = VERDICT_WORDS[curve.verdict]
+    assert f"Curve: {word}" in words and meaning in words
+    assert curve.verdict.code >= ensemble_result.checks.verdict.code
+    for reason in curve.reasons[:5]:
         assert reason[:40] in words.replace("\n  ", " ")
     assert "ok: " not in words and "FAILED" not in words
-    assert "the verdict above, the trial's, applies to the curve" in words.replace("\n", " ")
+    assert "worst of the trial's and of its own checks" in words.replace("\n", " ")
+    labels = [t.get_label() for t in fig.axes[0].containers]
+    assert any(label.startswith("least squares per bin") for label in labels)

@@ -43,8 +43,11 @@ def test_the_curve_answers_the_protocol(swept):
     curve = swept.curve
     data, frame, text = check_protocol(curve, unit_stiffness="N·m/rad")
     assert data == swept.to_dict()["by_schedule"]
-    assert list(frame.columns) == ["schedule", "stiffness", "stiffness_lo", "stiffness_hi", "n_samples"]
-    assert text.startswith("Stiffness by schedule") and "curve_heldout" in text
+    assert list(frame.columns) == ["schedule", "stiffness", "stiffness_lo", "stiffness_hi", "n_samples",
+                                   "ls_stiffness", "ls_stiffness_lo", "ls_stiffness_hi"]
+    # its own verdict and reasons first (issue 46), not a list of ok/FAILED checks
+    assert text.startswith(f"Curve verdict: {curve.verdict}") and "Stiffness by schedule" in text
+    assert all(r in text for r in curve.reasons) and "FAILED" not in text
     # the analysis draws its curve through the curve's own plot
     from matplotlib.figure import Figure
     mine, theirs = Figure().subplots(), Figure().subplots()

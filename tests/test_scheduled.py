@@ -105,7 +105,8 @@ def test_ensemble_through_the_cli(tmp_path):
                                     "--inertia", "0.015", "--damping", "0.8", "--out", str(out)])
     assert run.exit_code == 0, run.output
     frame = pd.read_csv(out / "ens" / "stiffness_by_phase.csv")
-    assert list(frame.columns) == ["phase", "stiffness", "stiffness_lo", "stiffness_hi", "n_cycles"]
+    assert list(frame.columns) == ["phase", "stiffness", "stiffness_lo", "stiffness_hi", "n_cycles", "ls_stiffness",
+                                   "ls_stiffness_lo", "ls_stiffness_hi"]
     assert len(frame) == 50 and frame["phase"].iloc[0] == pytest.approx(0.01)
     ok = frame["stiffness"].notna()
     err = np.abs(frame["stiffness"][ok] - truth(frame["phase"][ok])) / truth(frame["phase"][ok])
@@ -118,6 +119,14 @@ def test_ensemble_through_the_cli(tmp_path):
     assert block["n_cycles"] == 13                      # 14 pulses, the last cycle has no end
     assert block["resolution"]["chosen_knots"] > 0            # a curve, not the walk alone
     assert {c["name"] for c in summary["checks"]} >= {"curve_heldout", "curve_outlier_units", "curve_coverage"}
+    # issue 46: the curve's own verdict, at least the trial's, and the least-squares cross-check beside it
+    assert block["verdict"] in ("ok", "caution", "unreliable") and isinstance(block["reasons"], list)
+    order = ["ok", "caution", "unreliable"]
+    assert order.index(block["verdict"]) >= order.index(summary["verdict"])
+    assert {c["name"] for c in block["checks"]} >= {"curve_least_squares", "curve_negative"}
+    ls = frame["ls_stiffness"].notna()
+    # the least-squares fit of 13 cycles: within 10 % of the truth at the median (the same room as the curve's)
+    assert ls.mean() > 0.9 and np.median(np.abs(frame["ls_stiffness"][ls] / truth(frame["phase"][ls]) - 1)) < 0.10
     assert "stiffness_by_phase.csv" in summary["files"]
     # the same file analysed without cycles into the same folder: no curve of the earlier run is left
     again = CliRunner().invoke(main, ["analyze", str(tmp_path / "ens.csv"), "--no-pdf", "--overwrite", "--inertia",

@@ -26,7 +26,7 @@ SUMMARY_COLUMNS = ("trial", "status", "verdict", "error", "source", "variant", "
                    "output", "inertia_lo", "inertia_hi", "damping_lo", "damping_hi", "stiffness_at_mean_torque",
                    "stiffness_at_mean_torque_lo", "stiffness_at_mean_torque_hi", "stiffness_torque_slope",
                    "stiffness_torque_slope_lo", "stiffness_torque_slope_hi", "kind", "stiffness_unit", "inertia_unit",
-                   "damping_unit")
+                   "damping_unit", "curve_verdict")
 #: Prefix of the ``summary.csv`` columns that carry each trial's metadata (``# key: value`` lines).
 METADATA_PREFIX = "meta."
 #: The run's table, in the output folder.
@@ -85,6 +85,8 @@ class TrialRow:
         ``rotational`` or ``translational``: which units its figures are in.
     units : Mapping[str, str]
         The SI units of its figures (``stiffness``, ``inertia``, ``damping``…), as its JSON gives them.
+    curve_verdict : str or None
+        The verdict of its stiffness by phase or by schedule (None: the trial has no curve).
     """
 
     variant: str | None = None
@@ -100,6 +102,7 @@ class TrialRow:
     resumed: bool = False
     kind: str | None = None
     units: Mapping[str, str] = field(default_factory=FrozenDict)
+    curve_verdict: str | None = None
 
     @classmethod
     def from_summary(cls, summary: Mapping[str, Any], *, resumed: bool = False) -> "TrialRow":
@@ -114,7 +117,8 @@ class TrialRow:
                    stiffness_torque_slope=RowInterval.of(level.get("stiffness_torque_slope")),
                    observable_fraction=summary.get("observable_fraction"), output=summary.get("output"),
                    metadata=FrozenDict(_mapping(summary.get("metadata"))), resumed=resumed,
-                   kind=summary.get("kind") or _kind_of(units), units=FrozenDict(units))
+                   kind=summary.get("kind") or _kind_of(units), units=FrozenDict(units),
+                   curve_verdict=(_mapping(summary.get("by_phase")) or _mapping(summary.get("by_schedule"))).get("verdict"))
 
 
 #: The length unit of each kind's displacement (``units.angle`` of the JSON outputs), to tell a
@@ -143,6 +147,7 @@ def summary_row(outcome: TrialOutcome[TrialRow]) -> dict:
         "output": row.output,
         **_interval_columns(row),
         "kind": row.kind, **{f"{q}_unit": row.units.get(q) for q in ("stiffness", "inertia", "damping")},
+        "curve_verdict": row.curve_verdict,
         **{METADATA_PREFIX + str(k): v for k, v in row.metadata.items()},
     }
 

@@ -104,7 +104,7 @@ def write_result(result, directory: str | Path, *, extra: dict | None = None) ->
     # time keeps ten digits: a microsecond an hour into a trial
     write_csv(directory / STIFFNESS_CSV, _rounded(result.columns()))
     if getattr(result, "curve", None) is not None:
-        frame = result.curve.curve.to_frame()
+        frame = result.curve.to_frame()
         write_csv(directory / CURVE_CSV[result.curve.against], _rounded({c: frame[c].to_numpy() for c in frame}))
     summary = result.to_dict()
     if extra:

@@ -13,7 +13,8 @@ import textwrap
 
 import numpy as np
 
-from ..digest import ANGLE_PROPERTY, INFORMED_GLOSS, gloss_rows, headline_rows, recording_rows, verdict_line
+from ..digest import (ANGLE_PROPERTY, INFORMED_GLOSS, VERDICT_WORDS, gloss_rows, headline_rows, recording_rows,
+                      verdict_line)
 from ..trial_level import REFERENCE_SKIP_S
 from .common import (A4, FONT, FOOTER_HEIGHT, LIMIT_VALUES, ROW_SPACING, envelope, envelope_band, fmt, grid,
                      key_value_lines, new_page, robust_limits, shade_false, text_panel)
@@ -97,16 +98,17 @@ def angle_rows(result, figure=None) -> list[tuple[str, str]]:
                "that varies with the angle")]
 
 
-def verdict_box(fig, result, y: float, reasons: list[str] | None = None) -> float:
+def verdict_box(fig, result, y: float, reasons: list[str] | None = None, *, curve=None) -> float:
     """The verdict in plain words, coloured, with the reasons below it (``reasons``, the checks'
-    by default), from height ``y`` (page fraction) down (page 1, and the curve's page: the same
-    verdict); the height reached."""
-    verdict = verdict_line(result)
+    by default), from height ``y`` (page fraction) down (page 1; the curve's page gives its own
+    ``curve``, a :class:`~limbstiff.curve_result.CurveAnalysis`, and its reasons); the height reached."""
+    verdict = verdict_line(result) if curve is None else VERDICT_WORDS[curve.verdict]
     if verdict is None:
         fig.text(0.06, y, "No model checks were run: no verdict.", fontsize=FONT["heading"], va="top")
         return y - 0.03
     word, meaning, colour = verdict
-    fig.text(0.06, y, f"Verdict: {word}", fontsize=FONT["heading"] + 2, weight="bold", color=colour, va="top")
+    title = "Verdict" if curve is None else "Curve"
+    fig.text(0.06, y, f"{title}: {word}", fontsize=FONT["heading"] + 2, weight="bold", color=colour, va="top")
     fig.text(0.33, y - 0.003, meaning, fontsize=FONT["body"] + 1, color=colour, va="top")
     return _bullets(fig, None, list(result.checks.reasons) if reasons is None else reasons, y - 0.03, limit=5)
 

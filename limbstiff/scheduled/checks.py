@@ -1,13 +1,17 @@
 """Checks of a curve analysis: held-out cycles explained, cycles that disagree with the rest,
-phases (or schedule values) without motion. Pure numpy: no I/O.
+phases (or schedule values) without motion; and the checks of whether its band can be trusted
+(issue 46): the least-squares cross-check and a band wholly below zero. Pure numpy: no I/O.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..checks.verdict import Check
+from scipy.stats import binom, norm
+
+from ..checks.verdict import UNRELIABLE, Check
 from .curve import ScheduleCurve
+from .least_squares import LeastSquaresCurve, effective_bins
 from .resolution import ResolutionScore
 
 #: Held-out units predicted with this much more error variance than the model expects of itself
@@ -19,6 +23,9 @@ HELDOUT_ERROR_RATIO = 1.25
 #: A unit whose held-out error stands this many robust standard deviations (1.4826·MAD) above the
 #: units' median, and above :data:`DISAGREE_ERROR_RATIO` times it, disagrees with the rest.
 DISAGREE_Z, DISAGREE_ERROR_RATIO = 5.0, 1.5
+#: The least-squares cross-check fails when more bins disagree than chance allows at this level:
+#: the upper tail of the binomial count of disagreeing bins (:func:`least_squares_check`).
+CROSS_CHECK_ALPHA = 0.01
 
 
 def heldout_check(score: ResolutionScore, *, noun: str) -> Check:
@@ -72,21 +79,103 @@ def disagree_check(err: np.ndarray, *, noun: str, first_s: np.ndarray | None = N
                  "or leave them out")
 
 
+def _where(curve: ScheduleCurve, mask: np.ndarray, most: int = 6) -> str:
+    """The runs of bins ``mask`` (B,) as ``"phase 0.1–0.2, 0.5–0.56"`` (in the schedule's unit)."""
+    runs, start = [], None
+    for j, e in enumerate(np.append(mask, False)):
+        if e and start is None:
+            start = j
+        elif not e and start is not None:
+            runs.append((curve.edges[start], curve.edges[j]))
+            start = None
+    unit = "" if curve.against == "phase" or curve.unit == "1" else f" {curve.unit}"
+    more = "" if len(runs) <= most else f" and {len(runs) - most} more stretches"
+    return f"{curve.against} " + ", ".join(f"{a:.3g}–{b:.3g}" for a, b in runs[:most]) + unit + more
+
+
+def chance_share(n: int, correlation: float, level: float) -> float:
+    """The largest share of ``n`` compared bins that may disagree by chance.
+
+    Two calibrated, independent Gaussian bands at ``level`` disagree beyond the root sum of their
+    squared half-widths with probability 1 − ``level`` (the difference's own ``level`` band). Over
+    :func:`effective_bins` independent comparisons, the share is that of the smallest count whose
+    binomial upper tail is at most :data:`CROSS_CHECK_ALPHA`. Follows from the bands' definition,
+    not fitted to trials.
+    """
+    n_eff = int(round(effective_bins(n, correlation)))
+    k = int(binom.isf(CROSS_CHECK_ALPHA, n_eff, 1 - level)) + 1      # P(X ≥ k) ≤ alpha
+    return k / n_eff
+
+
+def _cross(curve: ScheduleCurve, ls: LeastSquaresCurve):
+    """The compared bins, those that disagree, the chance share, and the mean standardised
+    difference (curve − least squares, each band's half-width taken as z·σ) with its bound."""
+    both = curve.informed & ls.informed
+    hw_m, hw_ls = (curve.hi - curve.lo) / 2, (ls.hi - ls.lo) / 2
+    apart = both & (np.abs(curve.stiffness - ls.stiffness) > np.hypot(hw_m, hw_ls))
+    var_m, var_ls = np.median(hw_m[both] ** 2), np.median(hw_ls[both] ** 2)
+    rho = (curve.adjacent_correlation * var_m + ls.adjacent_correlation * var_ls) / max(var_m + var_ls, 1e-300)
+    n = int(both.sum())
+    z = norm.isf((1 - curve.level) / 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = (curve.stiffness - ls.stiffness)[both] / np.maximum(np.hypot(hw_m, hw_ls)[both] / z, 1e-300)
+    bound = norm.isf(CROSS_CHECK_ALPHA / 2) / np.sqrt(effective_bins(n, rho))
+    return both, apart, chance_share(n, rho, curve.level), float(np.mean(d)), float(bound)
+
+
+def least_squares_check(curve: ScheduleCurve, ls: LeastSquaresCurve) -> Check:
+    """``curve_least_squares``: the curve against the least-squares fit in each bin where both are
+    given. A bin disagrees when they differ by more than the root sum of squares of their
+    half-widths; the check fails when more bins disagree than :func:`chance_share` allows, or when
+    the curve lies on one side of the fit on average: the mean of the bins' differences in units of
+    their combined σ beyond its :data:`CROSS_CHECK_ALPHA` two-sided bound over the
+    :func:`effective_bins` (a level wrong everywhere, which correlated bins hide from the count)."""
+    noun = "phase" if curve.against == "phase" else "schedule"
+    if not (curve.informed & ls.informed).any():
+        return Check("curve_least_squares", None, None, True,
+                     f"no bin has both the curve and an informed least-squares fit by {noun}")
+    both, apart, limit, mean_d, bound = _cross(curve, ls)
+    n, k = int(both.sum()), int(apart.sum())
+    share = k / n
+    level_off = abs(mean_d) > bound
+    if share < limit and not level_off:
+        return Check("curve_least_squares", share, limit, True,
+                     f"the least-squares fit by {noun} agrees with the curve within their bands in {n - k} of {n} bins "
+                     f"(chance allows {100 * limit:.0f} % to disagree), and on average")
+    ratio = float(np.median(curve.stiffness[both] / ls.stiffness[both]))
+    where = (f"at {_where(curve, apart)}" if k else "everywhere a little")
+    level = (f"; the curve lies {'below' if mean_d < 0 else 'above'} the fit on average (median ratio {ratio:.2f})"
+             if level_off else "")
+    return Check("curve_least_squares", share, limit, False,
+                 f"the curve and a least-squares fit by {noun} (K, B and I of each bin's own) disagree beyond their "
+                 f"bands in {k} of {n} bins (chance allows {100 * limit:.0f} %) {where}{level}: the model lacks a "
+                 "feature of the data there (a sharp change, a reflex or a threshold it does not hold), so the curve's "
+                 "band may not hold the stiffness there; the least-squares points are drawn on the curve's page")
+
+
+def negative_check(curve: ScheduleCurve, ls: LeastSquaresCurve | None = None) -> Check:
+    """``curve_negative``: bins whose band lies wholly below zero (``unreliable``): a limb is not
+    negatively stiff, so the curve is wrong there whatever its band says."""
+    below = curve.informed & (curve.hi < 0)
+    if not below.any():
+        return Check("curve_negative", 0.0, 0.0, True, "no bin's band lies wholly below zero", UNRELIABLE)
+    said = ""
+    if ls is not None and (ls.informed & below).any():
+        k = ls.stiffness[ls.informed & below]
+        said = f" (the least-squares fit gives {k.min():.3g} to {k.max():.3g} there)"
+    return Check("curve_negative", float(below.sum()), 0.0, False,
+                 f"the curve's own band (the model's, before the least-squares misfit is added) lies wholly below "
+                 f"zero in {int(below.sum())} bins, at {_where(curve, below)}"
+                 f"{said}: a negative stiffness, which a limb does not have — the model does not fit the data "
+                 "there; do not use the curve at those values", UNRELIABLE)
+
+
 def motion_check(curve: ScheduleCurve) -> Check:
     """``curve_coverage``: bins of the phase (or schedule) without enough informed samples."""
     empty = ~curve.informed
     share = float(empty.mean())
     if not empty.any():
         return Check("curve_coverage", 0.0, 0.0, True, f"every {curve.against} bin is informed by motion")
-    runs, start = [], None
-    for j, e in enumerate(np.append(empty, False)):
-        if e and start is None:
-            start = j
-        elif not e and start is not None:
-            runs.append((curve.edges[start], curve.edges[j]))
-            start = None
-    where = ", ".join(f"{a:.3g}–{b:.3g}" for a, b in runs[:6])
-    unit = "" if curve.against == "phase" or curve.unit == "1" else f" {curve.unit}"
     return Check("curve_coverage", share, 0.0, False,
-                 f"no stiffness at {curve.against} {where}{unit}: too little motion there in too few "
+                 f"no stiffness at {_where(curve, empty)}: too little motion there in too few "
                  f"{'cycles' if curve.against == 'phase' else 'samples'} (perturb there, or record more)")

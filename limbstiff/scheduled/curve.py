@@ -5,12 +5,17 @@ the informed samples whose phase (or schedule) falls in it, pooled over every cy
 the same mean taken over joint posterior draws of the course: the simulation smoother's draws of
 the walk (:func:`~limbstiff.estimate.course_draws.course_deviations`) plus posterior draws of m,
 b, the effects' amplitudes and the curve's weights through the course's responses to them — the
-posterior of the analysis's own band, pooled. The spread from cycle to cycle is that of each
-cycle's own mean in the bin. Pure numpy: no I/O.
+posterior of the analysis's own band, pooled. The band published is the envelope of that and of
+the band measured from the data (issue 46): each unit's (cycle's or stretch's) own mean of the
+course in the bin, the units resampled with replacement and the bin's mean over them taken again,
+its percentile interval at the same level — so that how much the course differs from cycle to
+cycle shows in the band even where the model's posterior is sure of itself. The spread from
+cycle to cycle is that of each cycle's own mean in the bin. Pure numpy: no I/O.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,7 +44,8 @@ class ScheduleCurve:
         Bin centres: phase 0–1, or the schedule in its unit.
     edges : ndarray, shape (B + 1,)
     stiffness, lo, hi : ndarray, shape (B,), N·m/rad (N/m)
-        Mean course in each bin and its ``level`` band; NaN where the bin is not informed.
+        Mean course in each bin and its ``level`` band (the envelope of the posterior's and the
+        resampled units'); NaN where the bin is not informed.
     count : ndarray of int, shape (B,)
         Cycles (ensembles) or informed samples (schedules) in each bin.
     spread_lo, spread_hi : ndarray, shape (B,), N·m/rad
@@ -47,6 +53,13 @@ class ScheduleCurve:
     level : float
     knots : ndarray
         The curve's knots (phase or schedule).
+    posterior_lo, posterior_hi : ndarray, shape (B,), N·m/rad
+        The posterior's band alone (before the envelope).
+    adjacent_correlation : float
+        Correlation of neighbouring bins' posterior draws (median over the pairs).
+    misfit : float
+        The error beyond the band measured against the least-squares cross-check, as a share of
+        the stiffness (:meth:`widened`; 0 before).
     """
 
     against: str
@@ -61,6 +74,20 @@ class ScheduleCurve:
     spread_hi: np.ndarray
     level: float
     knots: np.ndarray
+    posterior_lo: np.ndarray
+    posterior_hi: np.ndarray
+    adjacent_correlation: float = 0.0
+    misfit: float = 0.0
+
+    def widened(self, misfit: float) -> "ScheduleCurve":
+        """The curve with its band widened by an error of ``misfit`` × the stiffness (sd) added in
+        quadrature to the posterior's (its half-width over its normal quantile), the envelope with
+        the band it had kept."""
+        from scipy.stats import norm
+        z = norm.isf((1 - self.level) / 2)
+        half = np.hypot((self.posterior_hi - self.posterior_lo) / 2, z * misfit * np.abs(self.stiffness))
+        return dataclasses.replace(self, lo=np.fmin(self.lo, self.stiffness - half),
+                                   hi=np.fmax(self.hi, self.stiffness + half), misfit=float(misfit))
 
     @property
     def count_name(self) -> str:
@@ -90,7 +117,17 @@ class ScheduleCurve:
                 "min": float(np.min(self.stiffness[ok])) if ok.any() else None,
                 "max": float(np.max(self.stiffness[ok])) if ok.any() else None,
                 "cycle_spread": None if self.against != "phase" else
-                {"p10": _floats(self.spread_lo), "p90": _floats(self.spread_hi)}}
+                {"p10": _floats(self.spread_lo), "p90": _floats(self.spread_hi)},
+                "band": {"from": "envelope of the posterior's band, the units' resampled means and the posterior's "
+                                 "widened by the misfit against the least-squares cross-check",
+                         "width_ratio": self.width_ratio, "misfit_share": self.misfit}}
+
+    @property
+    def width_ratio(self) -> float | None:
+        """The band's width over the posterior's alone, median over the informed bins."""
+        ok = self.informed & (self.posterior_hi > self.posterior_lo)
+        return float(np.median((self.hi - self.lo)[ok] / (self.posterior_hi - self.posterior_lo)[ok])) if ok.any() \
+            else None
 
 
 def _floats(x: np.ndarray) -> list:
@@ -128,7 +165,41 @@ def curve_draws(estimate, ident, steps: np.ndarray, *, draws: int, rng: np.rando
     return dev
 
 
-def schedule_curve(estimate, ident, *, against: str, u: np.ndarray, cycle: np.ndarray | None,
+def adjacent_correlation(draws: np.ndarray) -> float:
+    """The median correlation of neighbouring columns of ``draws`` (R, B) over the pairs (0 when
+    there are none): how much a bin's error goes with its neighbour's."""
+    ok = np.isfinite(draws).all(axis=0) & (np.nanstd(draws, axis=0) > 0)
+    d = draws[:, ok]
+    if d.shape[1] < 2:
+        return 0.0
+    z = (d - d.mean(axis=0)) / d.std(axis=0)
+    return float(np.median(np.mean(z[:, 1:] * z[:, :-1], axis=0)))
+
+
+def _unit_sums(values: np.ndarray, which: np.ndarray, unit: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Samples and sums of ``values`` (m,) of each unit ``unit`` (m,) in each bin ``which`` (m,), (bins, U) each."""
+    units = int(unit.max()) + 1
+    key = which * units + unit
+    hits = np.bincount(key, minlength=bins * units).reshape(bins, units).astype(float)
+    return hits, np.bincount(key, weights=values, minlength=bins * units).reshape(bins, units)
+
+
+def resampled_band(hits: np.ndarray, sums: np.ndarray, *, level: float, rng: np.random.Generator,
+                   draws: int = CURVE_DRAWS) -> tuple[np.ndarray, np.ndarray]:
+    """The band of each bin's mean over the units, the units resampled with replacement: from each
+    unit's samples ``hits`` and sums ``sums`` (bins, U) in each bin, the ``level`` percentile
+    interval of the resampled means, (bins,) each; NaN where a bin has no samples."""
+    units = hits.shape[1]
+    weights = np.stack([np.bincount(d, minlength=units) for d in rng.integers(0, units, (draws, units))]).astype(float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        means = (weights @ sums.T) / (weights @ hits.T)                 # (draws, bins)
+    out = np.full((2, hits.shape[0]), np.nan)
+    some = np.isfinite(means).any(axis=0)
+    out[:, some] = np.nanquantile(means[:, some], [0.5 - level / 2, 0.5 + level / 2], axis=0)
+    return out[0], out[1]
+
+
+def schedule_curve(estimate, ident, *, against: str, u: np.ndarray, cycle: np.ndarray | None, units: np.ndarray,
                    observable: np.ndarray, stiffness: np.ndarray, level: float, unit: str, knots: np.ndarray,
                    rng: np.random.Generator) -> ScheduleCurve:
     """The curve (module docstring) from the analysis's course ``stiffness`` (n,) and its estimate.
@@ -143,6 +214,8 @@ def schedule_curve(estimate, ident, *, against: str, u: np.ndarray, cycle: np.nd
         Phase or schedule at every sample (NaN outside).
     cycle : ndarray of int, shape (n,), or None
         Each sample's cycle (ensembles).
+    units : ndarray of int, shape (n,)
+        Each sample's held-out unit (its cycle, or its stretch of a schedule), resampled for the band.
     observable : ndarray of bool, shape (n,)
         Informed samples.
     stiffness : ndarray, shape (n,)
@@ -155,30 +228,29 @@ def schedule_curve(estimate, ident, *, against: str, u: np.ndarray, cycle: np.nd
     edges = bin_edges(against, u)
     bins = len(edges) - 1
     idx = estimate.steps.index
-    use = np.flatnonzero(observable[idx] & np.isfinite(u[idx]))
+    use = np.flatnonzero(observable[idx] & np.isfinite(u[idx]) & (units[idx] >= 0))
     samples = idx[use]
     which = np.clip(np.searchsorted(edges, u[samples], side="right") - 1, 0, bins - 1)
     centre = _bin_means(stiffness[samples], which, bins)
     dev = _bin_means(curve_draws(estimate, ident, use, draws=CURVE_DRAWS, rng=rng), which, bins)
-    lo, hi = np.quantile(centre + dev, [0.5 - level / 2, 0.5 + level / 2], axis=0)
+    post = np.quantile(centre + dev, [0.5 - level / 2, 0.5 + level / 2], axis=0)
+    hits, sums = _unit_sums(stiffness[samples], which, units[samples], bins)
+    data = resampled_band(hits, sums, level=level, rng=rng)
+    lo, hi = np.fmin(post[0], data[0]), np.fmax(post[1], data[1])
     spread = np.full((2, bins), np.nan)
     if cycle is not None:
-        # each cycle's own mean in each bin, (bins, cycles), NaN where the cycle has none there
-        n_cycles = int(cycle.max()) + 1
-        key = which * n_cycles + cycle[samples]
-        hits = np.bincount(key, minlength=bins * n_cycles).reshape(bins, n_cycles)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            per_cycle = np.bincount(key, weights=stiffness[samples], minlength=bins * n_cycles).reshape(
-                bins, n_cycles) / hits
         count = np.count_nonzero(hits, axis=1)
         enough = count >= MIN_BIN_CYCLES
         if enough.any():
+            with np.errstate(invalid="ignore", divide="ignore"):
+                per_cycle = sums / hits                 # each cycle's own mean, NaN where it has none there
             spread[:, enough] = np.nanpercentile(per_cycle[enough], [10, 90], axis=1)
     else:
         # each model step stands for the samples between it and the next
         count = np.bincount(which, minlength=bins) * int(np.median(np.diff(idx))) if len(idx) > 1 else \
             np.bincount(which, minlength=bins)
         enough = count >= MIN_BIN_SAMPLES
-    centre, lo, hi = (np.where(enough, x, np.nan) for x in (centre, lo, hi))
+    centre, lo, hi, post_lo, post_hi = (np.where(enough, x, np.nan) for x in (centre, lo, hi, *post))
     return ScheduleCurve(against, unit, (edges[:-1] + edges[1:]) / 2, edges, centre, lo, hi, count,
-                         spread[0], spread[1], level, np.asarray(knots, dtype=float))
+                         spread[0], spread[1], level, np.asarray(knots, dtype=float), post_lo, post_hi,
+                         adjacent_correlation(dev[:, enough]))

@@ -52,6 +52,8 @@ class ScheduleInput:
         Share of the angle's variance that the ensemble mean held (ensembles).
     cycle_lengths_s : ndarray or None
         Each cycle's length, s.
+    mean_bins : int or None
+        Phase bins the ensemble mean was taken in (:func:`limbstiff.cycles.mean_bins`; ensembles).
     """
 
     against: str
@@ -63,6 +65,7 @@ class ScheduleInput:
     how: str
     removed_share: float | None = None
     cycle_lengths_s: np.ndarray | None = None
+    mean_bins: int | None = None
 
     @property
     def n_cycles(self) -> int | None:
@@ -139,7 +142,7 @@ def _ensemble(trial: Trial, spec, *, where: str) -> ScheduleInput:
     local = split.shifted(span.start)
     cycle = local.cycle_of(cropped.n_samples)
     return ScheduleInput("phase", cropped, phase, "1", cycle, cycle, split.how, share,
-                         split.lengths() * trial.sample_period)
+                         split.lengths() * trial.sample_period, bins)
 
 
 def _cropped(trial: Trial, span: slice, changed: dict) -> Trial:
