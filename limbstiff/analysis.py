@@ -21,7 +21,7 @@ from typing import Sequence
 import numpy as np
 
 from . import bandwidth
-from .band import ModelForm, half_width, stiffness_band
+from .band import ModelForm, half_width, model_form_share, stiffness_band
 from .blas_threads import one_blas_thread
 from .checks import check_analysis
 from .checks.analysis import sign_hint
@@ -237,13 +237,14 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
     figures = trial_level_figures(course.filtered, estimate, course.coefficients, observable, level=level,
                                   seed=seed, limb=coupling.limb_stiffness if corrected else (lambda x: x), angle=angle,
                                   form=form)
+    informed = informed_samples(observable)
     checks = check_analysis(course.filtered, stiffness=stiffness, lo=lo, hi=hi, observable=observable, ident=ident,
                             noise=course.noise, coupling=coupling, corrected=corrected, angle_terms=angle,
-                            torque_scale=_torque_scale(protocol, course.filtered.variant))
+                            torque_scale=_torque_scale(protocol, course.filtered.variant),
+                            form_share=model_form_share(estimate, course.covariance, form, informed))
     reflex = reflex_check(_reflex_shift(course, ident, observable, level))
     curve = spec.curve and curve_analysis(prepared, spec.curve, estimate, ident, filtered=signals.filtered,
                                           observable=observable, stiffness=stiffness, level=level, seed=seed)
-    informed = informed_samples(observable)
     shape = velocity_shape_check(miss, stiffness=float(np.median(stiffness[informed])),
                                  half_width=float(np.median((hi - lo)[informed])) / 2, level=level)
     more = tuple(c for c in (reflex, shape, median_sign(figures.median_stiffness)) if c is not None)

@@ -68,6 +68,20 @@ def stiffness_band(estimate: Estimate, covariance: np.ndarray | None, coupling: 
     return stiffness, lo, hi
 
 
+def model_form_share(estimate: Estimate, covariance: np.ndarray | None, form: ModelForm | None,
+                     informed: np.ndarray) -> float:
+    """Share of the band's variance that is the alternatives' spread ``form``, median over the
+    samples ``informed`` (indices or mask, shape (n,)); 0 without alternatives."""
+    if form is None:
+        return 0.0
+    own = np.maximum(estimate.variance_with(covariance), 0.0)[informed]
+    spread = form.spread()[informed] ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = spread / (own + spread)
+    share = share[np.isfinite(share)]
+    return float(np.median(share)) if len(share) else 0.0
+
+
 def limb_stiffness(coupling: CouplingFit | None, stiffness, lo, hi):
     """The limb's stiffness and band when a coupling was found.
 

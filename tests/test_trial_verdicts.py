@@ -211,3 +211,32 @@ def test_the_figures_add_the_angle_change_only_where_the_check_tells_it_from_noi
     from limbstiff.figure_draws import told_angle
     assert told_angle(_terms(False, wald=ANGLE_WALD + 1)) is not None
     assert told_angle(_terms(False, wald=ANGLE_WALD - 1)) is None and told_angle(None) is None
+
+
+def test_wide_band_names_the_models_spread_only_when_it_is_most_of_the_width():
+    """Issue 46, true reasons: a band wider than the stiffness because two models of comparable
+    evidence disagree says so (and what to decide), not that the recording lacks motion; a band
+    whose width is the recording's own keeps the recording's causes."""
+    from limbstiff.checks.analysis import MODEL_FORM_SHARE, MODEL_FORM_WIDE, _stiffness_course
+    n = 200
+    stiffness = np.full(n, 10.0)
+    lo, hi = stiffness - 12.0, stiffness + 12.0            # width 2.4× the stiffness: both checks fail
+    observable = np.ones(n, dtype=bool)
+    for share, said in ((MODEL_FORM_SHARE + 0.3, True), (MODEL_FORM_SHARE - 0.3, False)):
+        checks = {c.name: c for c in _stiffness_course(stiffness, lo, hi, observable, share)}
+        for name in ("band_width_relative", "band_excludes_zero"):
+            assert not checks[name].passed
+            assert (MODEL_FORM_WIDE in checks[name].message) is said, (name, share)
+
+
+def test_model_form_share_is_the_alternatives_part_of_the_band_variance():
+    """band.model_form_share: an alternative whose change equals the estimator's own standard
+    deviation holds half the band's variance; none, zero."""
+    from types import SimpleNamespace
+
+    from limbstiff.band import ModelForm, model_form_share
+    n = 50
+    estimate = SimpleNamespace(variance_with=lambda cov: np.full(n, 4.0))     # sd 2
+    form = ModelForm(weights=np.array([1.0]), changes=np.full((1, n), 2.0))  # rms spread 2
+    assert model_form_share(estimate, None, form, np.arange(n)) == pytest.approx(0.5)
+    assert model_form_share(estimate, None, None, np.arange(n)) == 0.0

@@ -139,7 +139,19 @@ def _innovations(stats: model.InnovationStatistics | None, negligible: bool, sha
     ]
 
 
-def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
+#: Share of the band's variance (median over the informed samples) above which its width is said
+#: to come from the alternatives to the chosen model (:class:`limbstiff.band.ModelForm`): more
+#: than half of it is then the models' spread, not the recording's noise.
+MODEL_FORM_SHARE = 0.5
+
+#: Said instead of the recording's causes when the band's width is the alternatives' spread.
+MODEL_FORM_WIDE = ("most of the band's width is the spread between models the data hardly tell apart (the "
+                   "chosen one and an alternative of comparable evidence, such as the stretch reflex the `reflex` "
+                   "check probes put in or left out): their stiffness differs; decide which holds (--effect "
+                   "reflex, or a protocol's effects) and analyse again")
+
+
+def _stiffness_course(stiffness, lo, hi, observable, form_share: float = 0.0) -> list[Check]:
     informed = informed_samples(observable)
     negative = float(np.mean(stiffness[informed] < 0))
     median = float(np.median(stiffness[informed]))
@@ -151,13 +163,16 @@ def _stiffness_course(stiffness, lo, hi, observable) -> list[Check]:
                           "does not fit (check the torque's sign and units, or run `limbstiff diagnose`)"),
         check_at_most("band_width_relative", finite_or_none(width), BAND_WIDTH_MAX, severity=CAUTION,
                       good="the band is narrower than the stiffness itself",
-                      bad="the band is wider than the stiffness itself: the recording does not pin the stiffness "
-                          "down (too little motion, or torque the model takes for stiffness changes)"),
+                      bad="the band is wider than the stiffness itself: " + (
+                          MODEL_FORM_WIDE if form_share > MODEL_FORM_SHARE else
+                          "the recording does not pin the stiffness down (too little motion, or torque the model "
+                          "takes for stiffness changes)")),
         check_at_most("band_excludes_zero", finite_or_none(width), BAND_ZERO_MAX, severity=UNRELIABLE,
                       good="the band does not reach zero: the recording tells a stiffness from none",
-                      bad="the band is more than twice as wide as the stiffness and reaches zero: the recording "
-                          "does not determine the stiffness (torque noise, too little motion, or torque the model "
-                          "cannot explain)"),
+                      bad="the band is more than twice as wide as the stiffness and reaches zero: " + (
+                          MODEL_FORM_WIDE if form_share > MODEL_FORM_SHARE else
+                          "the recording does not determine the stiffness (torque noise, too little motion, or "
+                          "torque the model cannot explain)")),
     ]
 
 
@@ -313,7 +328,8 @@ def _coupling(coupling: CouplingFit | None, corrected: bool) -> Check | None:
 def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                    observable: np.ndarray, ident: Identification | None, noise: NoiseLevels,
                    coupling: CouplingFit | None = None, corrected: bool = False,
-                   angle_terms: AngleTerms | None = None, torque_scale: float = 1.0) -> ModelChecks:
+                   angle_terms: AngleTerms | None = None, torque_scale: float = 1.0,
+                   form_share: float = 0.0) -> ModelChecks:
     """Every check of one analysis.
 
     Parameters
@@ -335,6 +351,10 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
         fitted here when not given.
     torque_scale : float
         The protocol's ``scale`` for the torque's column (what the sign check's advice starts from).
+    form_share : float
+        Share of the band's variance that is the spread of the alternatives to the chosen model
+        (median over the informed samples; 0 without alternatives): the band-width checks then
+        say so (:data:`MODEL_FORM_SHARE`).
 
     Returns
     -------
@@ -351,7 +371,7 @@ def check_analysis(filtered: Filtered, *, stiffness: np.ndarray, lo: np.ndarray,
     informed = informed_samples(observable)
     checks = [_heldout(heldout),
               *_innovations(model.innovation_statistics(filtered, **kw, informed=informed), negligible, share),
-              *_stiffness_course(stiffness, lo, hi, observable),
+              *_stiffness_course(stiffness, lo, hi, observable, form_share),
               _angle_dependence(angle_terms or model.angle_terms(filtered, **kw), stiffness, lo, hi, observable),
               _noise_levels(model.bound_margins(filtered, **kw), negligible, share),
               _agreement(ident, filtered, stiffness, observable),
