@@ -164,6 +164,8 @@ def test_a_level_off_on_correlated_bins_is_found_by_the_mean_difference():
     low = _curve(0.7 * k, 0.7 * k * 0.95, 0.7 * k * 1.05, correlation=0.95)
     check = least_squares_check(low, dataclasses.replace(ls, adjacent_correlation=0.95))
     assert not check.passed and "below the fit on average" in check.message
+    # the message leads with what failed (the level), not with a count chance allows
+    assert "differ in level" in check.message and "disagree beyond their bands in" not in check.message
     same = _curve(k, k * 0.95, k * 1.05, correlation=0.95)
     assert least_squares_check(same, dataclasses.replace(ls, adjacent_correlation=0.95)).passed
 

@@ -144,13 +144,17 @@ def least_squares_check(curve: ScheduleCurve, ls: LeastSquaresCurve) -> Check:
                      f"(chance allows {100 * limit:.0f} % to disagree), and on average")
     ratio = float(np.median(curve.stiffness[both] / ls.stiffness[both]))
     where = (f"at {_where(curve, apart)}" if k else "everywhere a little")
-    level = (f"; the curve lies {'below' if mean_d < 0 else 'above'} the fit on average (median ratio {ratio:.2f})"
-             if level_off else "")
+    count = f"in {k} of {n} bins (chance allows {100 * limit:.0f} %) {where}"
+    # lead with what failed: the count of bins, or the level (a count within chance then follows it)
+    said = (f"disagree beyond their bands {count}" if share >= limit else
+            f"differ in level: the curve lies {'below' if mean_d < 0 else 'above'} the fit on average (median "
+            f"ratio {ratio:.2f}), beyond their bands {count}")
+    if share >= limit and level_off:
+        said += f"; the curve lies {'below' if mean_d < 0 else 'above'} the fit on average (median ratio {ratio:.2f})"
     return Check("curve_least_squares", share, limit, False,
-                 f"the curve and a least-squares fit by {noun} (K, B and I of each bin's own) disagree beyond their "
-                 f"bands in {k} of {n} bins (chance allows {100 * limit:.0f} %) {where}{level}: the model lacks a "
-                 "feature of the data there (a sharp change, a reflex or a threshold it does not hold), so the curve's "
-                 "band may not hold the stiffness there; the least-squares points are drawn on the curve's page")
+                 f"the curve and a least-squares fit by {noun} (K, B and I of each bin's own) {said}: the model lacks "
+                 "a feature of the data there (a sharp change, a reflex or a threshold it does not hold), so the "
+                 "curve's band may not hold the stiffness there; the least-squares points are drawn on the curve's page")
 
 
 def negative_check(curve: ScheduleCurve, ls: LeastSquaresCurve | None = None) -> Check:
