@@ -346,3 +346,13 @@ def test_a_file_where_a_trials_folder_goes_is_one_line(trial_file, tmp_path):
         assert res.exit_code == 2 and len(lines) == 1 and "Traceback" not in res.output, res.output
         assert str(out) in lines[0] and "t1" in lines[0] and "--out" in lines[0]
     assert (out / "t1").read_text() == "x" and not (out / "summary.csv").exists()
+
+
+def test_a_trial_whose_worker_ctrl_c_ended_is_cut_short_not_failed():
+    """On Ctrl-C the batch's table drops the trials whose worker the interrupt ended (they show as
+    lost workers: cut short, their folders incomplete), and keeps the trials that failed by their data."""
+    from limbstiff.batch.runner import WORKER_LOST, TrialOutcome, cut_short
+    lost = TrialOutcome("t1", "t1.csv", "failed", f"t1.csv: {WORKER_LOST} (BrokenProcessPool: …)")
+    bad = TrialOutcome("t2", "t2.csv", "failed", "t2.csv: the torque is 0 N·m throughout")
+    fine = TrialOutcome("t3", "t3.csv", "ok", "")
+    assert [cut_short(o) for o in (lost, bad, fine)] == [True, False, False]

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Callable, Sequence
 from .discovery import NothingToDo, discover, output_names, writable_folder
 from .outcome import BatchReport
 from .overwrite import clear_or_refuse, refuse_other_outputs, source_sha256
-from .runner import BatchJob, TrialOutcome, run_jobs, run_one
+from .runner import BatchJob, TrialOutcome, cut_short, run_jobs, run_one
 from .table import FolderTable, TrialRow, mixed_kinds, up_to_date
 from ..errors import LimbstiffError
 from ..protocol import ENSEMBLE_MARKER, Protocol
@@ -189,6 +189,11 @@ def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, e
     try:
         outcomes = run_jobs(jobs_list, functools.partial(_run_trial, work=work),
                             n_jobs=jobs, executor=executor, progress=record)
+    except KeyboardInterrupt:
+        # Ctrl-C reaches the workers too: the trials they were running show as lost workers, and
+        # are cut short, not failed (their folders stay incomplete and are redone next time)
+        table.write({name: o for name, o in finished.items() if not cut_short(o)})
+        raise
     except BaseException:
         table.write(finished)
         raise

@@ -150,12 +150,22 @@ def _exit_quietly(signum, frame):
 LOST_WORKER = ("BrokenProcessPool", "BrokenExecutor", "KilledWorker", "CommClosedError")
 
 
+#: The reason a trial fails with when the process running it was lost.
+WORKER_LOST = "the worker running it was lost"
+
+
+def cut_short(outcome: TrialOutcome) -> bool:
+    """Whether ``outcome`` failed only because its worker process was lost — as Ctrl-C does to
+    the workers it reaches: such a trial was cut short, not failed by its data."""
+    return outcome.status == "failed" and WORKER_LOST in outcome.error
+
+
 def _outcome(future, job: BatchJob) -> TrialOutcome:
     """The outcome a finished task returned, or a failed one when it could not run."""
     try:
         return future.result()
     except Exception as exc:  # noqa: BLE001 - a task that cannot run fails its trial, not the batch
-        what = ("the worker running it was lost" if type(exc).__name__ in LOST_WORKER
+        what = (WORKER_LOST if type(exc).__name__ in LOST_WORKER
                 else "it could not run on the executor")
         return TrialOutcome(job.name, str(job.source), "failed",
                             _one_line(f"{job.source}: {what} ({type(exc).__name__}: {exc})"))
