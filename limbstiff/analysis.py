@@ -246,7 +246,8 @@ def _result(trial: Trial, protocol: Protocol, signals: ModelSignals, derived: De
     curve = spec.curve and curve_analysis(prepared, spec.curve, estimate, ident, filtered=signals.filtered,
                                           observable=observable, stiffness=stiffness, level=level, seed=seed)
     shape = velocity_shape_check(miss, stiffness=float(np.median(stiffness[informed])),
-                                 half_width=float(np.median((hi - lo)[informed])) / 2, level=level)
+                                 half_width=float(np.median((hi - lo)[informed])) / 2, level=level,
+                                 coupled=coupling is not None and coupling.found)
     more = tuple(c for c in (reflex, shape, median_sign(figures.median_stiffness)) if c is not None)
     more += curve.checks if curve else ()
     checks = units_checks(ModelChecks(checks.checks + more), implausible_inertia(trial, protocol, ident, found))

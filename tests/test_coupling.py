@@ -36,11 +36,12 @@ def test_the_coupling_is_found_and_undone(coupled):
     assert result.checks["device_coupling"].passed
 
 
-@pytest.mark.xfail(strict=True, reason="issue 46's velocity_shape check fires on this trial (a shift of the median "
-                   "by 0.1 % against a band of ±0.3 %, the estimate right): a known false alarm on tight bands, "
-                   "left for a decision (closing note of issue 46)")
 def test_the_coupled_ankle_is_ok(coupled):
-    assert coupled[1].verdict == "ok"
+    """velocity_shape is not judged on a coupled trial: the residual holds the second body's motion
+    (it fired on every clean coupled ankle of benchmarks/checks.py, the estimate within 0.2 %)."""
+    result = coupled[1]
+    assert result.verdict == "ok"
+    assert result.checks["velocity_shape"].passed and "not judged" in result.checks["velocity_shape"].message
 
 
 @pytest.mark.parametrize("frequency", [20.0, 60.0])

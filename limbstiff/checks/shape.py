@@ -124,15 +124,23 @@ def shape_miss(steps: ModelSteps, noise: NoiseLevels, columns: np.ndarray, *, nu
                      shift_sd=float(np.sqrt(max(gradient @ sandwich @ gradient, 0.0))), columns=columns)
 
 
-def velocity_shape_check(miss: ShapeMiss | None, *, stiffness: float, half_width: float, level: float) -> Check | None:
+def velocity_shape_check(miss: ShapeMiss | None, *, stiffness: float, half_width: float, level: float,
+                         coupled: bool = False) -> Check | None:
     """Fails (``caution``) when the torques are significant and move the median stiffness by more
     than :data:`BIAS_SHARE` of :func:`contract_bias` times the band's half-width and by more than
     :data:`SHIFT_Z` of the shift's own standard errors: the band may not hold the stiffness.
     ``stiffness`` and ``half_width`` (N·m/rad) are the course's median and its band's median
-    half-width over the informed samples; None when no fit was made."""
+    half-width over the informed samples; None when no fit was made. Not judged when a compliant
+    coupling between limb and device was found (``coupled``): the one-body model's residual then
+    holds the second body's motion, which torques following the velocity take up whatever the
+    limb does (limbstiff's own coupled ankle, clean: benchmarks/RESULTS.md#checks)."""
     if miss is None:
         return None
     threshold = BIAS_SHARE * contract_bias(level)
+    if coupled:
+        return Check("velocity_shape", None, threshold, True,
+                     "not judged: a compliant coupling between limb and device was found, and the one-body model's "
+                     "residual holds the second body's motion, which torques following the velocity would take up")
     limit = max(threshold * half_width, SHIFT_Z * miss.shift_sd)
     value = abs(miss.shift) / half_width if half_width > 0 else float("inf")
     if not miss.significant:
