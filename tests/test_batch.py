@@ -356,3 +356,25 @@ def test_a_trial_whose_worker_ctrl_c_ended_is_cut_short_not_failed():
     bad = TrialOutcome("t2", "t2.csv", "failed", "t2.csv: the torque is 0 N·m throughout")
     fine = TrialOutcome("t3", "t3.csv", "ok", "")
     assert [cut_short(o) for o in (lost, bad, fine)] == [True, False, False]
+
+
+def test_an_error_raised_while_ctrl_c_was_handled_is_cut_short():
+    """A library that wraps the worker's Ctrl-C (SystemExit) in an ordinary error must not turn the
+    interrupted trial into a failed one; an ordinary error stays a failure."""
+    from pathlib import Path
+
+    from limbstiff.batch.runner import INTERRUPTED, BatchJob, cut_short, run_one
+
+    def wrapped(job):
+        try:
+            raise SystemExit(130)
+        except SystemExit:
+            raise ValueError("callback failed")
+
+    def broken(job):
+        raise ValueError("a bug")
+
+    job = BatchJob(name="t", source=Path("t.csv"), out=Path("out/t"), options=None)
+    cut, bug = run_one(job, wrapped), run_one(job, broken)
+    assert INTERRUPTED in cut.error and cut_short(cut)
+    assert not cut_short(bug) and "internal error" in bug.error

@@ -160,7 +160,7 @@ def test_ctrl_c_leaves_the_table_listing_exactly_the_complete_trials(trial_file,
     assert status == 130 and len(done) >= after, (status, done)
     table, ok = _ok_rows(out)
     assert ok == done                             # every complete trial, and none other
-    assert set(table["status"]) <= {"ok"}
+    assert set(table["status"]) <= {"ok"}, table.loc[table["status"] != "ok", ["trial", "error"]].to_dict("records")
 
 
 @pytest.mark.slow

@@ -88,9 +88,24 @@ def run_one(job: BatchJob, analyse_and_write: Callable[[BatchJob], RowT]) -> Tri
     except MemoryError:
         return TrialOutcome(job.name, str(job.source), "failed", f"{job.source}: out of memory")
     except Exception as exc:  # noqa: BLE001 - a batch must survive any one trial
+        if _raised_by_interrupt(exc):
+            return TrialOutcome(job.name, str(job.source), "failed", f"{job.source}: {INTERRUPTED}")
         return TrialOutcome(job.name, str(job.source), "failed",
                             _one_line(f"{job.source}: internal error ({type(exc).__name__}: {exc})"))
     return TrialOutcome(job.name, str(job.source), "ok", "", row)
+
+
+def _raised_by_interrupt(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised while an interrupt (Ctrl-C's SystemExit in a worker, or a
+    KeyboardInterrupt) was being handled: a library that wraps it (a callback inside compiled
+    code) turns the interrupt into an ordinary error, which is no failure of the trial's."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, (SystemExit, KeyboardInterrupt)):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def _one_line(text: str) -> str:
@@ -150,14 +165,16 @@ def _exit_quietly(signum, frame):
 LOST_WORKER = ("BrokenProcessPool", "BrokenExecutor", "KilledWorker", "CommClosedError")
 
 
-#: The reason a trial fails with when the process running it was lost.
+#: The reason a trial fails with when the process running it was lost …
 WORKER_LOST = "the worker running it was lost"
+#: … or when Ctrl-C reached the worker while it ran.
+INTERRUPTED = "interrupted before it finished"
 
 
 def cut_short(outcome: TrialOutcome) -> bool:
     """Whether ``outcome`` failed only because its worker process was lost — as Ctrl-C does to
     the workers it reaches: such a trial was cut short, not failed by its data."""
-    return outcome.status == "failed" and WORKER_LOST in outcome.error
+    return outcome.status == "failed" and (WORKER_LOST in outcome.error or INTERRUPTED in outcome.error)
 
 
 def _outcome(future, job: BatchJob) -> TrialOutcome:
