@@ -99,13 +99,17 @@ def _raised_by_interrupt(exc: BaseException) -> bool:
     """Whether ``exc`` was raised while an interrupt (Ctrl-C's SystemExit in a worker, or a
     KeyboardInterrupt) was being handled: a library that wraps it (a callback inside compiled
     code) turns the interrupt into an ordinary error, which is no failure of the trial's."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
+    for _ in range(CHAIN_MAX):                  # a chain may loop back on itself: walk a bounded part
+        if exc is None:
+            return False
         if isinstance(exc, (SystemExit, KeyboardInterrupt)):
             return True
-        seen.add(id(exc))
         exc = exc.__cause__ or exc.__context__
     return False
+
+
+#: Links of an exception's cause/context chain looked through for an interrupt.
+CHAIN_MAX = 16
 
 
 def _one_line(text: str) -> str:
