@@ -34,7 +34,8 @@ import numpy as np
 
 from ..statespace.noise import NoiseLevels, fit_levels, noise_bounds
 from ..statespace.smoother import at_steps, kalman_loglik, kalman_smoother, to_samples
-from ..statespace.steps import ModelSteps, initial_slopes, model_steps
+from ..statespace.linear import course_response
+from ..statespace.steps import ModelSteps, model_steps
 
 
 @dataclass(frozen=True)
@@ -161,19 +162,17 @@ def kalman_stiffness(angle: np.ndarray, measured: np.ndarray, *, sample_period: 
     """
     st = model_steps(angle, measured, sample_period=sample_period, decimation=decimation, edge=edge,
                      motion_frequency=motion_frequency, scale_from=scale_from)
-    idx, y, z, increments, step, g = st.index, st.angle, st.measured, st.increments, st.step, st.deflection
+    idx, z, increments, step, g = st.index, st.measured, st.increments, st.step, st.deflection
     mean0, cov0 = st.initial_mean, st.initial_cov
     if noise is None:
         noise = fit_noise(st, motion_frequency=motion_frequency)
     out = kalman_smoother(increments, z, noise, step=step, deflection=g, initial_mean=mean0, initial_cov=cov0)
     back = to_samples(len(angle), edge, decimation, len(idx))
     responses = np.empty((len(regressors), len(angle)))
-    for j, reg in enumerate(regressors):
-        r = np.asarray(reg)[idx]
-        resp = kalman_smoother(increments, r, noise, step=step, deflection=g,
-                               initial_mean=(float(r[0]), float(initial_slopes(y, r)[0])),
-                               initial_cov=cov0, loglik=False)
-        responses[j] = back(at_steps(resp.mean[:, 1]))
+    if len(regressors):
+        at = course_response(st, np.vstack([np.asarray(reg)[idx] for reg in regressors]), noise)
+        for j, row in enumerate(at):
+            responses[j] = back(row)
     return KalmanStiffness(stiffness=back(at_steps(out.mean[:, 1])),
                            variance=back(at_steps(np.maximum(out.cov[:, 2], 0.0))),
                            noise=noise, loglik=out.loglik, decimation=decimation, responses=responses, steps=st)
