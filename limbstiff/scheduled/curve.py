@@ -184,13 +184,19 @@ def _unit_sums(values: np.ndarray, which: np.ndarray, unit: np.ndarray, bins: in
     return hits, np.bincount(key, weights=values, minlength=bins * units).reshape(bins, units)
 
 
+def resample_weights(units: int, draws: int, rng: np.random.Generator) -> np.ndarray:
+    """How often each of ``units`` units is drawn in each of ``draws`` resamples with replacement,
+    shape (draws, units): the whole-unit bootstrap of the curve's band and of its least-squares
+    cross-check."""
+    return np.stack([np.bincount(d, minlength=units) for d in rng.integers(0, units, (draws, units))]).astype(float)
+
+
 def resampled_band(hits: np.ndarray, sums: np.ndarray, *, level: float, rng: np.random.Generator,
                    draws: int = CURVE_DRAWS) -> tuple[np.ndarray, np.ndarray]:
     """The band of each bin's mean over the units, the units resampled with replacement: from each
     unit's samples ``hits`` and sums ``sums`` (bins, U) in each bin, the ``level`` percentile
     interval of the resampled means, (bins,) each; NaN where a bin has no samples."""
-    units = hits.shape[1]
-    weights = np.stack([np.bincount(d, minlength=units) for d in rng.integers(0, units, (draws, units))]).astype(float)
+    weights = resample_weights(hits.shape[1], draws, rng)
     with np.errstate(invalid="ignore", divide="ignore"):
         means = (weights @ sums.T) / (weights @ hits.T)                 # (draws, bins)
     out = np.full((2, hits.shape[0]), np.nan)

@@ -33,7 +33,7 @@ import numpy as np
 from scipy.stats import norm
 
 from .. import cycles
-from .curve import MIN_BIN_CYCLES, ScheduleCurve, adjacent_correlation
+from .curve import MIN_BIN_CYCLES, ScheduleCurve, adjacent_correlation, resample_weights
 
 #: Resamples of the units for the interval.
 RESAMPLES = 200
@@ -153,8 +153,7 @@ def binned_least_squares(tau: np.ndarray, angle: np.ndarray, velocity: np.ndarra
         # the angle's variance apart from θ̃', θ̃'' and c: 1 / (a⁻¹)₀₀ per sample
         partial_sd = scale[0] / np.sqrt(np.abs(np.linalg.pinv(a, hermitian=True)[:, 0, 0]) * n)
     informed = (per_bin >= MIN_BIN_CYCLES) & (partial_sd > resolution) & np.isfinite(k)
-    drawn = rng.integers(0, n_units, size=(RESAMPLES, n_units))
-    weights = np.stack([np.bincount(d, minlength=n_units) for d in drawn]).astype(float)   # (R, U)
+    weights = resample_weights(n_units, RESAMPLES, rng)                                 # (R, U)
     kr = _solve(np.einsum("ru,bupq->rbpq", weights, xx), np.einsum("ru,bup->rbp", weights, xy)) / scale[0]
     lo, hi = np.full((2, bins), np.nan)
     if informed.any():
