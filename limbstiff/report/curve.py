@@ -35,7 +35,8 @@ def plot_curve(curve, *, ax=None, unit_stiffness: str = "N·m/rad", legend: bool
         ax.errorbar(x[on], ls.stiffness[on], yerr=[ls.stiffness[on] - ls.lo[on], ls.hi[on] - ls.stiffness[on]],
                     fmt="o", ms=2.5, color="tab:orange", ecolor="tab:orange", elinewidth=0.8, capsize=0, zorder=3,
                     label=f"least squares per bin, {100 * ls.level:.0f} % interval")
-    if np.any(curve.informed & (curve.hi < 0)) or (least_squares is not None and np.nanmin(least_squares.lo, initial=0) < 0):
+    ls_below = least_squares is not None and np.nanmin(least_squares.lo, initial=0) < 0
+    if np.any(curve.informed & (curve.hi < 0)) or ls_below:
         ax.axhline(0.0, color="0.3", lw=0.6)
     for k in curve.knots:
         ax.axvline(k, color="0.85", lw=0.6, zorder=0)
@@ -76,7 +77,6 @@ def curve_page(result):
     if curve.against == "phase":
         rows.append(("ensemble mean taken off", f"{100 * prepared['ensemble_mean_share_of_angle_variance']:.0f} % of "
                      "the angle's variance (the movement every cycle repeats)"))
-    ratio = curve.width_ratio
     ratio = curve.width_ratio
     rows.append((f"{100 * curve.level:.0f} % band", "the envelope of the estimate's own uncertainty (the walk, m, b, "
                  f"the curve's weights), of the {units} resampled whole, and of the misfit against the least-squares "
