@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Callable, Sequence
 from .discovery import NothingToDo, discover, output_names, writable_folder
 from .outcome import BatchReport
 from .overwrite import clear_or_refuse, refuse_other_outputs, source_sha256
-from .runner import BatchJob, TrialOutcome, cut_short, run_jobs, run_one
+from .runner import BatchJob, TrialOutcome, cut_short, interrupted, run_jobs, run_one
 from .table import FolderTable, TrialRow, mixed_kinds, up_to_date
 from ..errors import LimbstiffError
 from ..protocol import ENSEMBLE_MARKER, Protocol
@@ -180,7 +180,9 @@ def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, e
     table.write(finished)
 
     def record(outcome, done, total):
-        if outcome.status != "skipped":         # a file found in a folder that is no trial: no row
+        # a file found in a folder that is no trial has no row; a trial Ctrl-C cut short has none
+        # either (its folder stays incomplete and is redone next time)
+        if outcome.status != "skipped" and not interrupted(outcome):
             finished[outcome.trial] = outcome
             table.write(finished)
         if progress:

@@ -178,7 +178,14 @@ INTERRUPTED = "interrupted before it finished"
 def cut_short(outcome: TrialOutcome) -> bool:
     """Whether ``outcome`` failed only because its worker process was lost — as Ctrl-C does to
     the workers it reaches: such a trial was cut short, not failed by its data."""
-    return outcome.status == "failed" and (WORKER_LOST in outcome.error or INTERRUPTED in outcome.error)
+    return outcome.status == "failed" and (WORKER_LOST in outcome.error or interrupted(outcome))
+
+
+def interrupted(outcome: TrialOutcome) -> bool:
+    """Whether ``outcome`` failed because Ctrl-C reached its worker: never a failure of the
+    trial's, whenever the batch's own process learns of the interrupt (its worker's outcome may
+    come back before the batch's own KeyboardInterrupt is raised)."""
+    return outcome.status == "failed" and INTERRUPTED in outcome.error
 
 
 def _outcome(future, job: BatchJob) -> TrialOutcome:
