@@ -1,5 +1,6 @@
 """Shared fixtures: small synthetic trials written as files, and the real data's location."""
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +12,12 @@ from limbstiff.trial import Trial
 #: The five real ankle recordings, in the repository (GPL-2.0, outside the installed package).
 REAL = Path(__file__).resolve().parents[1] / "data" / "reklab-ankle"
 PROTOCOLS = Path(__file__).resolve().parents[1] / "protocols"
+
+# The processes the tests start (``python -m limbstiff``, batch workers) import this tree, not a copy
+# installed earlier: a tree edited after ``pip install .`` is tested as it is, and every process shares
+# one numba cache (compiling the kernels costs each process ~10 s of CPU where none is cached).
+os.environ["PYTHONPATH"] = os.pathsep.join(
+    [str(Path(__file__).resolve().parents[1])] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])
 
 
 def multisine_trial(name="synthetic", *, duration=8.0, fs=500.0, inertia=0.06, damping=0.45,
