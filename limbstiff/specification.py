@@ -71,5 +71,5 @@ def stiffness_course(walk: Estimate, spec: ModelSpecification, coefficients: Coe
     terms = spec.curve_terms
     if terms is None:
         return walk
-    return scheduled.with_curve(walk, spec.curve, coefficients.values_of(terms.names),
-                                first_row=int(coefficients.positions(terms.names[:1])[0]))
+    names = spec.curve.weight_names
+    return scheduled.with_curve(walk, spec.curve, coefficients.values_of(names), rows=coefficients.positions(names))

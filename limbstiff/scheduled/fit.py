@@ -54,6 +54,12 @@ class ScheduleTerms:
         made while choosing the resolution: the identification starts from it."""
         return self.resolution.score_of(self.resolution.chosen).fit
 
+    @property
+    def weight_names(self) -> tuple[str, ...]:
+        """The coefficients of the stiffness's own weights (J − 1; after them in :attr:`terms`, the
+        gains of effects modulated over the cycle)."""
+        return () if self.terms is None else self.terms.names[:self.basis.size]
+
 
 def candidates(against: str, u: np.ndarray, *, n_steps: int, unit: str) -> dict[int, StiffnessBasis]:
     """The resolutions worth trying (:data:`~.basis.PHASE_KNOTS` or :data:`~.basis.SCHEDULE_KNOTS`),
@@ -113,15 +119,15 @@ def schedule_terms(filtered: Filtered, against: str, u: np.ndarray, unit_of_samp
     return ScheduleTerms(basis, resolution, u, terms)
 
 
-def with_curve(estimate: Estimate, schedule: ScheduleTerms, weights: np.ndarray, *, first_row: int) -> Estimate:
-    """The estimate of the walk with the curve at ``weights`` (the first J − 1 of the curve's
-    coefficients) added back, and its response to each (rows ``first_row``… of the sensitivity:
-    after m, b and the effects)."""
+def with_curve(estimate: Estimate, schedule: ScheduleTerms, weights: np.ndarray, *, rows: np.ndarray) -> Estimate:
+    """The estimate of the walk with the curve at ``weights`` (the values of
+    :attr:`ScheduleTerms.weight_names`, shape (J − 1,)) added back, and its response to each
+    (``rows`` of the sensitivity: where those names stand among the model's coefficients)."""
     if schedule.terms is None:
         return estimate
     design = schedule.basis.design(schedule.u)
     design = np.where(np.isfinite(design), design, 0.0)
     sens = estimate.sensitivity.copy()
-    sens[first_row:first_row + len(design)] += design
-    weights = np.asarray(weights)[:len(design)]
-    return dataclasses.replace(estimate, stiffness=estimate.stiffness + weights @ design, sensitivity=sens)
+    sens[np.asarray(rows, dtype=int)] += design
+    return dataclasses.replace(estimate, stiffness=estimate.stiffness + np.asarray(weights) @ design,
+                               sensitivity=sens)
