@@ -26,7 +26,8 @@ Wilson interval), their median error, and every ``ok`` curve whose band holds th
 than :data:`OK_COVERAGE` of its bins. Four trials of ``benchmarks/generators/ensembles.py`` (a
 sharp stiffness trough, 25–45 ms reflexes, small perturbations on large imposed cycles) join
 the study. ``--before`` stores the run's figures as the ``before`` block of the JSON (run on the
-library before issue 46); later runs keep that block and print both.
+library before issue 46); later runs keep that block and print both. ``--previous LABEL`` keeps
+the JSON's last figures as a ``previous`` row named LABEL (the figures before one change).
 
 Writes section ``curve-study`` of ``benchmarks/RESULTS.md`` and ``benchmarks/curve_study.json``.
 """
@@ -267,8 +268,10 @@ def _ok_lines(out: dict) -> list[str]:
     lines = ["\nIssue 46 — curves said `ok` (the curve's own verdict; before issue 46 the trial's), all curves:\n",
              "| run | curves | said ok | coverage among ok [95 % Wilson] | median error among ok | band width | "
              "ok curves holding the truth on < 85 % of bins |", "|---|---|---|---|---|---|---|"]
-    for label, fig in (("before", out.get("before", {}).get("ok")), ("now", out.get("ok"))):
-        if not fig:
+    previous = out.get("previous") or {}
+    for label, fig in (("before", out.get("before", {}).get("ok")), (previous.get("label"), previous.get("ok")),
+                       ("now", out.get("ok"))):
+        if not fig or not label:
             continue
         cov = "–" if fig["ok_coverage"] is None else (
             f"{100 * fig['ok_coverage']:.0f} % [{100 * fig['ok_coverage_wilson'][0]:.0f}, "
@@ -360,6 +363,8 @@ def main() -> None:
     ap.add_argument("--no-timing", action="store_true")
     ap.add_argument("--from-json", action="store_true", help="rewrite the section from curve_study.json only")
     ap.add_argument("--before", action="store_true", help="store this run's figures as the JSON's `before` block")
+    ap.add_argument("--previous", metavar="LABEL",
+                    help="keep the JSON's last figures as a `previous` row named LABEL (a change's own before)")
     args = ap.parse_args()
     if args.from_json:
         text = section(json.loads((HERE / "curve_study.json").read_text()))
@@ -376,6 +381,8 @@ def main() -> None:
            "ok": ok_figures(rows)}
     out["before"] = ({"ok": out["ok"], "by_phase": out["by_phase"], "by_schedule": out["by_schedule"],
                       "wall_s": out["wall_s"]} if args.before else previous.get("before", {}))
+    out["previous"] = ({"label": args.previous, "ok": previous.get("ok")} if args.previous
+                       else previous.get("previous"))
     (HERE / "curve_study.json").write_text(json.dumps(out, indent=1))
     if args.no_timing:                  # the last measured timing is kept, said as such by its commit
         out["timing"] = previous.get("timing")

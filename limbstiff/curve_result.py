@@ -20,10 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .checks.verdict import Check, ModelChecks, Verdict
+from .coefficients import Coefficients
 from .files.outputs import jsonable
 from .scheduled.checks import (disagree_check, heldout_check, least_squares_check, motion_check, negative_check,
                                unit_errors)
-from .scheduled.curve import ScheduleCurve, schedule_curve
+from .scheduled.curve import ScheduleCurve, interpolation_error, schedule_curve
 from .scheduled.least_squares import LeastSquaresCurve, curve_least_squares, misfit_share
 from .scheduled.fit import ScheduleTerms
 from .scheduled.prepare import ScheduleInput
@@ -191,5 +192,8 @@ def curve_analysis(prepared: ScheduleInput, terms: ScheduleTerms, estimate, iden
     checks = (heldout_check(score, noun=noun), disagree_check(errors, noun=noun, first_s=starts), motion_check(curve))
     # the cross-check judges the curve's own band; the band published also holds the misfit it measures
     band_checks = (least_squares_check(curve, ls), negative_check(curve, ls))
-    return CurveAnalysis(curve.widened(misfit_share(curve, ls)), terms.resolution, prepared.to_dict(), checks,
-                         prepared.u, ls, band_checks)
+    weights = (Coefficients.of(ident).values_of(terms.weight_names) if ident is not None and terms.weight_names
+               else np.zeros(terms.basis.size))
+    interpolation = interpolation_error(terms.basis, weights, curve.edges)
+    return CurveAnalysis(curve.widened(misfit_share(curve, ls), interpolation), terms.resolution, prepared.to_dict(),
+                         checks, prepared.u, ls, band_checks)

@@ -80,7 +80,8 @@ def curve_page(result):
     ratio = curve.width_ratio
     rows.append((f"{100 * curve.level:.0f} % band", "the envelope of the estimate's own uncertainty (the walk, m, b, "
                  f"the curve's weights), of the {units} resampled whole, and of the misfit against the least-squares "
-                 f"points ({100 * curve.misfit:.0f} % of the stiffness, rms, added to the estimate's own)"
+                 f"points ({100 * curve.misfit:.0f} % of the stiffness, rms) and the straight lines' error between "
+                 f"the knots ({100 * (curve.interpolation_share or 0.0):.1f} %, median) added to the estimate's own"
                  + ("" if ratio is None else f": {ratio:.2f}× the estimate's own width (median)")))
     if analysis.least_squares is not None:
         rows.append(("least squares (points)", analysis.least_squares.how))

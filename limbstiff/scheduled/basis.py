@@ -103,6 +103,37 @@ class StiffnessBasis:
         g = np.asarray(angle, dtype=float) - float(np.mean(angle))
         return np.ascontiguousarray(design * g[None, :])
 
+    def interpolation_error(self, weights: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """How far the curve may lie from a smooth stiffness through its knot values, at ``u`` (n,),
+        shape (n,), N·m/rad (N/m): a straight line over a knot interval of width h misses a function
+        of second derivative f″ by ½·t·(1 − t)·h²·|f″| at the fraction t of the interval (the error
+        of linear interpolation), f″ taken as the larger of the knot values' second differences at
+        the interval's two ends. Zero at the knots, beyond a schedule's end knots and with fewer
+        than three knots; NaN where u is."""
+        J = len(self.knots)
+        u = np.asarray(u, dtype=float)
+        if J < 3:
+            return np.where(np.isfinite(u), 0.0, np.nan)
+        c = np.concatenate([[0.0], np.asarray(weights, dtype=float)[:J - 1]])     # the first knot's is the walk's
+        if self.periodic:
+            k = np.append(self.knots, 1.0)
+            h = np.diff(k)
+            slope = np.diff(np.append(c, c[0])) / h
+            curvature = np.abs(2 * (slope - np.roll(slope, 1)) / (h + np.roll(h, 1)))           # at each knot
+            at_ends = np.maximum(curvature, np.roll(curvature, -1))
+            x = np.where(np.isfinite(u), u, 0.0) % 1.0
+        else:
+            k = self.knots
+            h = np.diff(k)
+            slope = np.diff(c) / h
+            inner = np.abs(2 * np.diff(slope) / (h[:-1] + h[1:]))
+            curvature = np.concatenate([inner[:1], inner, inner[-1:]])          # an end knot takes its neighbour's
+            at_ends = np.maximum(curvature[:-1], curvature[1:])
+            x = np.clip(np.where(np.isfinite(u), u, k[0]), k[0], k[-1])
+        left = np.clip(np.searchsorted(k, x, side="right") - 1, 0, len(h) - 1)
+        t = np.clip((x - k[left]) / h[left], 0.0, 1.0)
+        return np.where(np.isfinite(u), 0.5 * t * (1 - t) * h[left] ** 2 * at_ends[left], np.nan)
+
     def curve(self, weights: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Σ_j β_j·h_j(u) (n,) for weights (J − 1,): the curve less its first knot's value."""
         return np.asarray(weights, dtype=float) @ self.design(u) if self.size else np.zeros(len(u))

@@ -60,6 +60,9 @@ class ScheduleCurve:
     misfit : float
         The error beyond the band measured against the least-squares cross-check, as a share of
         the stiffness (:meth:`widened`; 0 before).
+    interpolation : ndarray, shape (B,), N·m/rad, or None
+        The curve's interpolation error between its knots in each bin (:func:`interpolation_error`;
+        :meth:`widened`; None before).
     """
 
     against: str
@@ -78,16 +81,21 @@ class ScheduleCurve:
     posterior_hi: np.ndarray
     adjacent_correlation: float = 0.0
     misfit: float = 0.0
+    interpolation: np.ndarray | None = None
 
-    def widened(self, misfit: float) -> "ScheduleCurve":
-        """The curve with its band widened by an error of ``misfit`` × the stiffness (sd) added in
-        quadrature to the posterior's (its half-width over its normal quantile), the envelope with
-        the band it had kept."""
+    def widened(self, misfit: float, interpolation: np.ndarray | None = None) -> "ScheduleCurve":
+        """The curve with its band widened by an error of ``misfit`` × the stiffness (sd) and by
+        ``interpolation`` (B,), N·m/rad, the curve's interpolation error between its knots
+        (:func:`interpolation_error`), added in quadrature to the posterior's half-width (the
+        misfit at the level's normal quantile); the envelope with the band it had kept."""
         from scipy.stats import norm
         z = norm.isf((1 - self.level) / 2)
-        half = np.hypot((self.posterior_hi - self.posterior_lo) / 2, z * misfit * np.abs(self.stiffness))
+        extra = np.zeros(len(self.at)) if interpolation is None else np.nan_to_num(np.asarray(interpolation, float))
+        half = np.sqrt(((self.posterior_hi - self.posterior_lo) / 2) ** 2 + (z * misfit * self.stiffness) ** 2
+                       + extra ** 2)
         return dataclasses.replace(self, lo=np.fmin(self.lo, self.stiffness - half),
-                                   hi=np.fmax(self.hi, self.stiffness + half), misfit=float(misfit))
+                                   hi=np.fmax(self.hi, self.stiffness + half), misfit=float(misfit),
+                                   interpolation=extra)
 
     @property
     def count_name(self) -> str:
@@ -119,8 +127,19 @@ class ScheduleCurve:
                 "cycle_spread": None if self.against != "phase" else
                 {"p10": _floats(self.spread_lo), "p90": _floats(self.spread_hi)},
                 "band": {"from": "envelope of the posterior's band, the units' resampled means and the posterior's "
-                                 "widened by the misfit against the least-squares cross-check",
-                         "width_ratio": self.width_ratio, "misfit_share": self.misfit}}
+                                 "widened by the misfit against the least-squares cross-check and by the curve's "
+                                 "interpolation error between its knots",
+                         "width_ratio": self.width_ratio, "misfit_share": self.misfit,
+                         "interpolation_share": self.interpolation_share}}
+
+    @property
+    def interpolation_share(self) -> float | None:
+        """The interpolation error over the stiffness, median over the informed bins (None before
+        :meth:`widened`)."""
+        ok = self.informed & (self.stiffness != 0)
+        if self.interpolation is None or not ok.any():
+            return None
+        return float(np.median(self.interpolation[ok] / np.abs(self.stiffness[ok])))
 
     @property
     def width_ratio(self) -> float | None:
@@ -128,6 +147,16 @@ class ScheduleCurve:
         ok = self.informed & (self.posterior_hi > self.posterior_lo)
         return float(np.median((self.hi - self.lo)[ok] / (self.posterior_hi - self.posterior_lo)[ok])) if ok.any() \
             else None
+
+
+def interpolation_error(basis, weights: np.ndarray, edges: np.ndarray, *, points: int = 21) -> np.ndarray:
+    """Each bin's mean of the curve's interpolation error between its knots
+    (:meth:`~.basis.StiffnessBasis.interpolation_error` of ``basis`` at ``weights``, (J − 1,)), over
+    ``points`` evenly spaced points of each bin of ``edges`` (B + 1,): shape (B,), N·m/rad. Linear
+    interpolation misses a curved stiffness by the same sign across a knot interval, so the bin's
+    mean misses it by the mean of the errors."""
+    u = np.linspace(edges[:-1], edges[1:], points, axis=1)          # (B, points)
+    return basis.interpolation_error(weights, u.ravel()).reshape(u.shape).mean(axis=1)
 
 
 def _floats(x: np.ndarray) -> list:
