@@ -404,7 +404,7 @@ def test_a_pooled_diagnosis_shows_each_trials_own_selection(tmp_path):
     write_trial(simulate("elbow", seed=1, params={"duration": 12.0}, effect="reflex"), tmp_path / "a.csv")
     write_trial(simulate("wrist", seed=2, params={"duration": 12.0}), tmp_path / "b.csv")
     out = tmp_path / "out"
-    res = CliRunner().invoke(main, ["diagnose", str(tmp_path), "--out", str(out), "--seed", "4"])
+    res = CliRunner().invoke(main, ["diagnose", str(tmp_path), "--out", str(out), "--seed", "4", "--jobs", "1"])
     assert res.exit_code == 0, res.output
     data = json.loads((out / "diagnosis.json").read_text())
     assert data["diagnosis"] == []
