@@ -123,7 +123,7 @@ def test_stem_collisions_keep_both(trial_file, tmp_path):
         (tmp_path / sub).mkdir()
         trial_file("trial", folder=tmp_path / sub)
     out = tmp_path / "out"
-    res = run("analyze", tmp_path / "day1", tmp_path / "day2", "--out", out, "--no-pdf")
+    res = run("analyze", tmp_path / "day1", tmp_path / "day2", "--out", out, "--no-pdf", "--jobs", 1)
     assert res.exit_code == 0, res.output
     assert (out / "trial" / "summary.json").exists() and (out / "trial-2" / "summary.json").exists()
     assert "also named 'trial'" in res.output

@@ -404,7 +404,7 @@ def test_a_pooled_diagnosis_shows_each_trials_own_selection(tmp_path):
     write_trial(simulate("elbow", seed=1, params={"duration": 12.0}, effect="reflex"), tmp_path / "a.csv")
     write_trial(simulate("wrist", seed=2, params={"duration": 12.0}), tmp_path / "b.csv")
     out = tmp_path / "out"
-    res = CliRunner().invoke(main, ["diagnose", str(tmp_path), "--out", str(out), "--seed", "4"])
+    res = CliRunner().invoke(main, ["diagnose", str(tmp_path), "--out", str(out), "--seed", "4", "--jobs", "1"])
     assert res.exit_code == 0, res.output
     data = json.loads((out / "diagnosis.json").read_text())
     assert data["diagnosis"] == []
@@ -429,11 +429,11 @@ def test_cli_diagnoses_several_trials_in_processes(tmp_path):
     # --jobs 2: both trials read and analysed in worker processes, each reported once, in input order
     # in the outputs; a missing-channel file among them is one failed line, the others still diagnosed
     for i, seed in enumerate((51, 52)):
-        write_trial(_trial("ankle", "coulomb_friction", seed, duration=10.0), tmp_path / f"t{i}.csv")
+        write_trial(_trial("ankle", "coulomb_friction", seed, duration=5.0), tmp_path / f"t{i}.csv")
     (tmp_path / "t2.csv").write_text("time_s,angle_rad\n0,0\n0.001,0.1\n0.002,0.2\n")
     out = tmp_path / "out"
     res = CliRunner().invoke(main, ["diagnose", str(tmp_path), "--out", str(out), "--inertia", "0.015",
-                                    "--damping", "1.0", "--jobs", "2"])
+                                    "--damping", "1.0", "--jobs", "2", "--no-pdf"])
     assert res.exit_code == 1, res.output
     assert sum("[" in ln and "/3]" in ln for ln in res.output.splitlines()) == 3
     data = json.loads((out / "diagnosis.json").read_text())

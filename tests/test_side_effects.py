@@ -120,9 +120,10 @@ def test_the_diagnosis_report_leaves_the_users_matplotlib_alone(tmp_path):
         import limbstiff
         from limbstiff.simulate import simulate
         trial = simulate("ankle", seed=5, params={{"duration": 8.0}})
-        d = limbstiff.diagnose([trial], seed=0)
+        result = limbstiff.analyze(trial, seed=0)      # the analysis the diagnosis would make again
+        d = limbstiff.diagnose([trial], seed=0, results=[result])
         d.write_pdf({str(tmp_path / "diagnosis.pdf")!r})
-        limbstiff.write_report(limbstiff.analyze(trial, seed=0), {str(tmp_path / "report.pdf")!r})
+        limbstiff.write_report(result, {str(tmp_path / "report.pdf")!r})
         assert matplotlib.get_backend() == "svg", matplotlib.get_backend()
         assert plt.get_fignums() == [1] and len(plt.gcf().axes[0].lines) == 1
         assert dict(matplotlib.rcParams) == before

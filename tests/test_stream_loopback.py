@@ -60,8 +60,100 @@ class _Consumer(threading.Thread):
             self.error = exc
 
 
+class _Background:
+    """A real-time scenario's processes, started at once and waited for when its test asks: the
+    scenarios are independent (own stream names, folders and processes), so the two short ones run
+    during the 30 s session instead of after it (the worker waits on real time meanwhile)."""
+
+    def __init__(self, start):
+        self._finish = start()          # starts the processes; returns what waits for them
+        self._result = None
+
+    def result(self):
+        if self._result is None:
+            self._result = self._finish()
+        return self._result
+
+
+def _limbstiff(*args):
+    return [sys.executable, "-m", "limbstiff", *map(str, args)]
+
+
 @pytest.fixture(scope="module")
-def session(tmp_path_factory):
+def restarted_run(tmp_path_factory):
+    """The restarted sender (a thread here) and ``limbstiff stream`` in a process of its own."""
+    from .support.lsl_loopback import restarted
+
+    tmp_path = tmp_path_factory.mktemp("restart")
+
+    def start():
+        spec = next(s for s in suite(7100) if s.name == "clean-constant-elbow")
+        data, _ = make_trial(spec)
+        sent = data[["angle_rad", "torque_Nm"]].to_numpy()[:14000]
+        name = unique_name("restart")
+        sender = restarted(sent, split=7000, pause_s=0.5, fs=FS, labels=("angle_rad", "torque_Nm"),
+                           units=("rad", "Nm"), name=name, source_id=name, wait_consumer_s=60.0, linger_s=0.5)
+        sender.start()
+        proc = subprocess.Popen(_limbstiff("stream", "--name", name, "--out", tmp_path, "--trial", "s", "--timeout", 5,
+                                           "--no-outlet", "--no-pdf", "--quiet"),
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+        def finish():
+            try:
+                output = proc.communicate(timeout=240)[0]
+            finally:
+                sender.stop.set()
+                sender.join(10)
+            return proc.returncode, output, sent, tmp_path
+        return finish
+
+    run = _Background(start)
+    yield run
+    if run._result is None:             # its test was not selected: end what was started
+        run.result()
+
+
+@pytest.fixture(scope="module")
+def quiet_end(tmp_path_factory):
+    """``limbstiff simulate --stream`` and ``limbstiff stream`` as a user runs them, two processes,
+    liblsl configured by a file that sets no log level (the tests' loopback without its [log])."""
+    from .support.lsl_loopback import CONFIG
+
+    tmp_path = tmp_path_factory.mktemp("quiet")
+
+    def start():
+        config = tmp_path / "lsl_api.cfg"
+        text = CONFIG.read_text()
+        config.write_text(text[:text.index("[log]")])
+        root = Path(__file__).resolve().parents[1]
+        env = {**os.environ, "LSLAPICFG": str(config),
+               "PYTHONPATH": os.pathsep.join([str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}
+        name, out = unique_name("quiet"), tmp_path / "out"
+        sender = subprocess.Popen(_limbstiff("simulate", "elbow", "--seed", "2", "--set", "duration=4", "--stream",
+                                             "--stream-name", name, "--wait-consumer", "60"),
+                                  env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        session = subprocess.Popen(_limbstiff("stream", "--name", name, "--out", out, "--trial", "t",
+                                              "--resolve-timeout", "30", "--timeout", "4", "--warmup", "2",
+                                              "--no-outlet", "--no-pdf"),
+                                   env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+        def finish():
+            try:
+                session_err = session.communicate(timeout=240)[1]
+            finally:
+                sent_err = sender.communicate(timeout=60)[1]
+            return session.returncode, session_err, sender.returncode, sent_err, out
+        return finish
+
+    run = _Background(start)
+    yield run
+    if run._result is None:
+        run.result()
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory, restarted_run, quiet_end):
+    # restarted_run and quiet_end are requested only to start them first: they run during this one
     spec = next(s for s in suite(7100) if s.name == "clean-ramp-elbow")
     data, _ = make_trial(spec)
     sent = data[["angle_rad", "torque_Nm", "stiffness_true_Nm_per_rad"]].to_numpy()[:int(SECONDS * FS)]
@@ -150,24 +242,12 @@ def test_usage_errors(tmp_path):
     assert result.exit_code == 2 and "--overwrite" in result.output
 
 
-def test_a_restarted_sender_and_a_stall_end_with_both_parts_recorded_and_analysed(tmp_path):
+def test_a_restarted_sender_and_a_stall_end_with_both_parts_recorded_and_analysed(restarted_run):
     """The sender stops after 7 s and a new one (same source_id) sends 7 s more, then the stream
     stalls: the session records two segments, says so, and analyses both (the recording is never lost)."""
-    from .support.lsl_loopback import restarted
-
-    spec = next(s for s in suite(7100) if s.name == "clean-constant-elbow")
-    data, _ = make_trial(spec)
-    sent = data[["angle_rad", "torque_Nm"]].to_numpy()[:14000]
-    name = unique_name("restart")
-    sender = restarted(sent, split=7000, pause_s=0.5, fs=FS, labels=("angle_rad", "torque_Nm"), units=("rad", "Nm"),
-                       name=name, source_id=name, wait_consumer_s=60.0, linger_s=0.5)
-    sender.start()
-    result = CliRunner().invoke(main, ["stream", "--name", name, "--out", str(tmp_path), "--trial", "s",
-                                       "--timeout", "5", "--no-outlet", "--no-pdf", "--quiet"])
-    sender.stop.set()
-    sender.join(10)
-    assert result.exit_code == 0, result.output
-    assert "no sample for 5 s" in result.output
+    returncode, output, sent, tmp_path = restarted_run.result()
+    assert returncode == 0, output
+    assert "no sample for 5 s" in output
     info = json.loads((tmp_path / "s" / "stream.json").read_text())
     assert info["recordings"] == ["s.csv", "s-2.csv"] and len(info["breaks"]) == 1
     # liblsl loses the first ~1.2 s of the new sender's samples while it reconnects (files.lsl)
@@ -181,7 +261,7 @@ def test_a_restarted_sender_and_a_stall_end_with_both_parts_recorded_and_analyse
     assert (tmp_path / "s" / "summary.json").exists() and (tmp_path / "s-2" / "summary.json").exists()
 
 
-def test_a_normal_end_of_stream_is_quiet_and_not_an_error(tmp_path):
+def test_a_normal_end_of_stream_is_quiet_and_not_an_error(quiet_end):
     """`limbstiff simulate --stream` and `limbstiff stream` as a user runs them, in two processes,
     liblsl configured by a file that sets no log level (the tests' loopback without its [log]):
     neither prints a line of liblsl's on stderr (no INFO, no `ERR| Stream transmission broke off`
@@ -191,32 +271,14 @@ def test_a_normal_end_of_stream_is_quiet_and_not_an_error(tmp_path):
 
     from limbstiff.files import read_trial
 
-    from .support.lsl_loopback import CONFIG
-
-    config = tmp_path / "lsl_api.cfg"
-    text = CONFIG.read_text()
-    config.write_text(text[:text.index("[log]")])
-    root = Path(__file__).resolve().parents[1]
-    env = {**os.environ, "LSLAPICFG": str(config),
-           "PYTHONPATH": os.pathsep.join([str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}
-    name, out = unique_name("quiet"), tmp_path / "out"
-    limbstiff = [sys.executable, "-m", "limbstiff"]
-    sender = subprocess.Popen([*limbstiff, "simulate", "elbow", "--seed", "2", "--set", "duration=4", "--stream",
-                               "--stream-name", name, "--wait-consumer", "60"],
-                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        session = subprocess.run([*limbstiff, "stream", "--name", name, "--out", str(out), "--trial", "t",
-                                  "--resolve-timeout", "30", "--timeout", "4", "--warmup", "2", "--no-outlet",
-                                  "--no-pdf"], env=env, capture_output=True, text=True, timeout=240)
-    finally:
-        sent_err = sender.communicate(timeout=60)[1]
+    returncode, session_err, sender_returncode, sent_err, out = quiet_end.result()
     liblsl = re.compile(r"(INFO|ERR|WARN)\||liblsl|loguru|Stream transmission")
-    for stderr in (session.stderr, sent_err):
+    for stderr in (session_err, sent_err):
         lines = [line for line in re.split(r"[\r\n]", stderr) if line.strip()]
         assert not [line for line in lines if liblsl.search(line)], stderr[-2000:]
-    assert session.returncode == 0, session.stderr[-2000:]
-    assert "stream: the stream ended (its sender closed it; no sample for 4 s)" in session.stderr
-    assert sender.returncode == 0
+    assert returncode == 0, session_err[-2000:]
+    assert "stream: the stream ended (its sender closed it; no sample for 4 s)" in session_err
+    assert sender_returncode == 0
     lines = (out / "t.csv").read_text().splitlines()
     header = lines.index("time_s,angle_rad,torque_Nm,stiffness_true_Nm_per_rad")
     assert lines[header + 1].startswith("0.0,")                       # no unit row
