@@ -188,6 +188,10 @@ def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, e
         if progress:
             progress(outcome, done, total)
 
+    if executor is None and jobs > 1 and len(jobs_list) > 1:
+        # local workers are forked from this process: what it has imported they inherit, instead of
+        # each importing the analysis (scipy, numba's kernels) again
+        from .. import analysis  # noqa: F401
     try:
         outcomes = run_jobs(jobs_list, functools.partial(_run_trial, work=work),
                             n_jobs=jobs, executor=executor, progress=record)
