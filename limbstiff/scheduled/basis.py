@@ -54,14 +54,12 @@ class StiffnessBasis:
         """Weights: the knots less the first (0 for the walk alone)."""
         return max(len(self.knots) - 1, 0)
 
-    def hats(self, u: np.ndarray) -> np.ndarray:
-        """Every knot's hat at ``u`` (n,), shape (J, n); rows sum to 1 where u is finite, 0 where NaN."""
-        u = np.asarray(u, dtype=float)
+    def _locate(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Where each finite ``u`` (n,) falls among the knots: the mask of finite u (n,), and for
+        those its knot interval's left and right knots and the fraction of the way across it (0–1;
+        a schedule's u beyond its end knots at its end knot), each (k,). At least two knots."""
         J = len(self.knots)
-        out = np.zeros((J, len(u)))
         ok = np.isfinite(u)
-        if J == 0:
-            return out
         if self.periodic:
             x = (u[ok] % 1.0) * J               # knots at j/J
             left = np.floor(x).astype(int) % J
@@ -73,6 +71,15 @@ class StiffnessBasis:
             left = np.clip(np.searchsorted(k, x, side="right") - 1, 0, J - 2)
             w = (x - k[left]) / (k[left + 1] - k[left])
             right = left + 1
+        return ok, left, right, w
+
+    def hats(self, u: np.ndarray) -> np.ndarray:
+        """Every knot's hat at ``u`` (n,), shape (J, n); rows sum to 1 where u is finite, 0 where NaN."""
+        u = np.asarray(u, dtype=float)
+        out = np.zeros((len(self.knots), len(u)))
+        if len(self.knots) == 0:
+            return out
+        ok, left, right, w = self._locate(u)
         cols = np.flatnonzero(ok)
         np.add.at(out, (left, cols), 1.0 - w)
         np.add.at(out, (right, cols), w)
@@ -112,27 +119,23 @@ class StiffnessBasis:
         than three knots; NaN where u is."""
         J = len(self.knots)
         u = np.asarray(u, dtype=float)
+        out = np.where(np.isfinite(u), 0.0, np.nan)
         if J < 3:
-            return np.where(np.isfinite(u), 0.0, np.nan)
+            return out
         c = np.concatenate([[0.0], np.asarray(weights, dtype=float)[:J - 1]])     # the first knot's is the walk's
+        ends = np.append(self.knots, 1.0) if self.periodic else self.knots
+        h = np.diff(ends)                                                       # each knot interval's width
+        interval = np.arange(len(h))
+        slope = (c[(interval + 1) % J] - c[interval]) / h
         if self.periodic:
-            k = np.append(self.knots, 1.0)
-            h = np.diff(k)
-            slope = np.diff(np.append(c, c[0])) / h
             curvature = np.abs(2 * (slope - np.roll(slope, 1)) / (h + np.roll(h, 1)))           # at each knot
-            at_ends = np.maximum(curvature, np.roll(curvature, -1))
-            x = np.where(np.isfinite(u), u, 0.0) % 1.0
         else:
-            k = self.knots
-            h = np.diff(k)
-            slope = np.diff(c) / h
             inner = np.abs(2 * np.diff(slope) / (h[:-1] + h[1:]))
             curvature = np.concatenate([inner[:1], inner, inner[-1:]])          # an end knot takes its neighbour's
-            at_ends = np.maximum(curvature[:-1], curvature[1:])
-            x = np.clip(np.where(np.isfinite(u), u, k[0]), k[0], k[-1])
-        left = np.clip(np.searchsorted(k, x, side="right") - 1, 0, len(h) - 1)
-        t = np.clip((x - k[left]) / h[left], 0.0, 1.0)
-        return np.where(np.isfinite(u), 0.5 * t * (1 - t) * h[left] ** 2 * at_ends[left], np.nan)
+        at_ends = np.maximum(curvature, np.roll(curvature, -1))[:len(h)]
+        ok, left, _, t = self._locate(u)
+        out[ok] = 0.5 * t * (1 - t) * h[left] ** 2 * at_ends[left]
+        return out
 
     def curve(self, weights: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Σ_j β_j·h_j(u) (n,) for weights (J − 1,): the curve less its first knot's value."""
