@@ -9,8 +9,9 @@ script analyses, with the library as it is, the held-out suites 7300–7600 of
 ``tests/support/independent_trials.py`` (96 trials of 30 s, m and b identified) and the gated
 reflex of ``benchmarks/reflex_study.py`` with ``--effect reflex`` (66 runs of 60 s, the design the
 0.5 was fitted on), and records each trial's ``velocity_shape`` value (|shift| ÷ the band's
-half-width), its failed checks, the course band's coverage of the truth (informed samples after
-2 s) and whether the median's interval holds the true median. It then says which trials would be
+half-width), its failed checks, and the course band's coverage of the truth and whether the
+median's interval holds the true median as the other studies measure them
+(:func:`trial_verdicts.verdict_fields`). It then says which trials would be
 ``ok`` at each limit: a trial whose only failed check is ``velocity_shape`` and whose value lies
 under the limit (the check's other condition, the shift's 1.96 standard errors, does not depend on
 the limit). Nothing in the library changes here.
@@ -32,17 +33,17 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE), str(HERE.parent), str(HERE.parent / "tests")]
 from _results import machine, update_section  # noqa: E402
+from trial_verdicts import verdict_fields  # noqa: E402
 
 SHARES = (0.5, 0.75, 1.0, 1.5)
 
 
-def _row(name: str, trial, result, truth: np.ndarray, median_truth: float) -> dict:
-    obs = result.observable & (trial.time >= 2.0)
+def _row(name: str, result, truth: float | None = None) -> dict:
+    """The figures :func:`trial_verdicts.verdict_fields` gives the other studies, and the check's value."""
     check = next((c for c in result.checks.checks if c.name == "velocity_shape"), None)
-    ml = result.trial_level.median_stiffness
+    fields = verdict_fields(result, truth)
     return {"trial": name, "verdict": result.verdict, "failed": [c.name for c in result.checks.failed],
-            "coverage": float(np.mean((truth[obs] >= result.stiffness_lo[obs]) & (truth[obs] <= result.stiffness_hi[obs]))),
-            "median_holds": bool(ml.lo <= median_truth <= ml.hi),
+            "coverage": fields["coverage"], "median_holds": fields["median_holds"],
             "value": None if check is None else check.value}
 
 
@@ -62,8 +63,7 @@ def held_out(job: tuple[int, str]) -> dict:
         result = analyze(trial, seed=0)
     except LimbstiffError as exc:
         return {"trial": f"{name}@{base}", "refused": " ".join(str(exc).split())[:120]}
-    truth = trial.stiffness_true
-    return _row(f"{name}@{base}", trial, result, truth, float(np.median(truth[result.observable])))
+    return _row(f"{name}@{base}", result)
 
 
 def gated_reflex(job: tuple[float, str, int, str]) -> dict:
@@ -77,7 +77,7 @@ def gated_reflex(job: tuple[float, str, int, str]) -> dict:
     if mode == "given":
         kwargs.update(inertia=I_TRUE, damping=B_TRUE)
     result = analyze(trial, **kwargs)
-    return _row(f"{sign}-G{gain:g}-s{seed}-{mode}", trial, result, np.full(trial.n_samples, K_TRUE), K_TRUE)
+    return _row(f"{sign}-G{gain:g}-s{seed}-{mode}", result, K_TRUE)
 
 
 def at_share(rows: list[dict], share: float, bias: float) -> dict:
