@@ -21,16 +21,11 @@ from limbstiff.errors import NotATrial, TrialError
 from limbstiff.files.atomic import locked
 from limbstiff.files.read import read_trial
 
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _env():
-    return dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
 
 
 def _analyze(*args, **kw):
     cmd = [sys.executable, "-m", "limbstiff", "analyze", *map(str, args)]
-    return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=_env(), **kw)
+    return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, **kw)
 
 
 def _complete(out):
@@ -88,7 +83,7 @@ def test_the_lock_makes_another_process_wait(tmp_path):
     holder = subprocess.Popen(
         [sys.executable, "-c", "import sys, time\nfrom limbstiff.files.atomic import locked\n"
          f"with locked({str(lock)!r}):\n    print('held', flush=True)\n    time.sleep(1.5)\n"],
-        stdout=subprocess.PIPE, text=True, env=_env())
+        stdout=subprocess.PIPE, text=True)
     assert holder.stdout.readline().strip() == "held"
     start = time.monotonic()
     with locked(lock):

@@ -16,7 +16,6 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -125,9 +124,7 @@ def quiet_end(tmp_path_factory):
         config = tmp_path / "lsl_api.cfg"
         text = CONFIG.read_text()
         config.write_text(text[:text.index("[log]")])
-        root = Path(__file__).resolve().parents[1]
-        env = {**os.environ, "LSLAPICFG": str(config),
-               "PYTHONPATH": os.pathsep.join([str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}
+        env = {**os.environ, "LSLAPICFG": str(config)}         # PYTHONPATH: this tree (tests/conftest.py)
         name, out = unique_name("quiet"), tmp_path / "out"
         sender = subprocess.Popen(_limbstiff("simulate", "elbow", "--seed", "2", "--set", "duration=4", "--stream",
                                              "--stream-name", name, "--wait-consumer", "60"),
