@@ -22,7 +22,6 @@ from limbstiff.files.atomic import locked
 from limbstiff.files.read import read_trial
 
 
-
 def _analyze(*args, **kw):
     cmd = [sys.executable, "-m", "limbstiff", "analyze", *map(str, args)]
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, **kw)
