@@ -61,10 +61,10 @@ def test_trials_the_model_fits_pass_every_check_but_the_angle_dependence(results
     # z_df also has the reflex SOURCE.md describes, which moves its stiffness by more than its band
     # (test_a_reflex_in_the_model_moves_z_df_towards_source below)
     # issue 46: z_df2's residual also holds a torque following the velocity through a threshold (the
-    # reflex SOURCE.md describes), which moves its stiffness beyond what its band holds: velocity_shape
+    # reflex SOURCE.md describes); it moves the stiffness by 0.28 of the band's half-width, under the
+    # contract's 0.33 (test_no_angle_property_… below), so velocity_shape passes
     failed = {c.name for c in results[name].checks.failed}
-    allowed = {"angle_dependence"} | ({"reflex"} if name == "z_df" else set()) | (
-        {"velocity_shape"} if name == "z_df2" else set())
+    allowed = {"angle_dependence"} | ({"reflex"} if name == "z_df" else set())
     assert failed <= allowed, results[name].checks.reasons
     assert results[name].verdict == ("caution" if failed else "ok")
 
@@ -124,7 +124,12 @@ def test_no_angle_property_is_claimed_where_a_velocity_driven_torque_is_a_rival(
 
     for name in ("z_df", "z_df2"):
         assert not any(r.startswith(ANGLE_PROPERTY) for r in results[name].checks.reasons)
-    assert "velocity_shape" in {c.name for c in results["z_df2"].checks.failed}
+    # z_df2's velocity-driven torques stand out of the noise (so they are the angle terms' rival) and
+    # move its median by −3.8 % (±0.5 %): 0.28 of the band's half-width, a shift under which a 90 %
+    # band still holds 85 % (the limit, 0.33); measured when the limit moved from half of it (issue 46)
+    shape = results["z_df2"].checks["velocity_shape"]
+    assert shape.passed and "is in the residual" in shape.message
+    assert 0.5 * shape.threshold < shape.value < shape.threshold
     # z_df3 shows no change with the angle: the check passes and lowers nothing
     assert results["z_df3"].checks["angle_dependence"].passed
     assert "angle_dependence" not in {c.name for c in results["z_df3"].checks.failed}
