@@ -10,7 +10,8 @@ report's words (``StiffnessResult.report()``) and the batch's ``summary.csv``. `
 prints every value that differs (JSON leaves compared exactly) and exits 1 when any does. Paths
 are written relative to the repository (``<repository>``, ``<tmp>``) and the settings' hash,
 which covers the protocol's path, is left out, so two clones give the same snapshot.
-Run before and after a change that must not change behaviour (issue 33: identical).
+Run before and after a change that must not change behaviour (issue 33: identical). It snapshots
+the limbstiff Python imports (a checkout's through ``PYTHONPATH=<checkout>``) and names it.
 """
 
 from __future__ import annotations
@@ -113,6 +114,8 @@ def main(argv=None) -> int:
     parser.add_argument("out")
     parser.add_argument("--compare")
     args = parser.parse_args(argv)
+    # the limbstiff importable here (an installed copy unless PYTHONPATH names a tree): say which
+    print(f"snapshot of {Path(limbstiff.__file__).parent}", file=sys.stderr)
     snap = snapshot()
     Path(args.out).write_text(json.dumps(snap, indent=1, sort_keys=True))
     if not args.compare:
