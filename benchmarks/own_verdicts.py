@@ -8,8 +8,11 @@ the course band's coverage of the truth, whether the ``median_stiffness`` interv
 course's median, and the band's median width relative to the stiffness. Issue 46 asks that these
 stay: the share said ``ok`` on clean trials (a check that fires there is a false alarm; the
 ``elbow-nonlinear`` scenario's stiffness does depend on the angle, so the angle reason is a
-detection there) and bands no wider than 1.5 times today's. A run labelled ``before`` is kept in
-``own_verdicts.json``; a later run gives each scenario's width ratio against it.
+detection there) and bands no wider than 1.5 times today's. Each run's figures are kept in
+``own_verdicts.json`` under its label (a new run of a label replaces it); the run labelled
+``before`` gives each scenario's width ratio. The median's interval is compared with the true
+course's median over the figure's own samples (:func:`trial_verdicts.verdict_fields`; from the
+run ``limit 1`` on: before it, over the informed samples after the first 2 s).
 
 Runtime: about 3–5 s per 30 s trial on one process (8 scenarios × 3 seeds: ~2 min).
 Writes section ``own-verdicts`` of ``benchmarks/RESULTS.md`` and ``benchmarks/own_verdicts.json``.
@@ -85,7 +88,7 @@ def main(argv=None) -> str:
     clean = [r for r in rows if r["scenario"] != "elbow-nonlinear"]
     groups = {"clean (angle-independent)": summarise(clean),
               "elbow-nonlinear": summarise([r for r in rows if r["scenario"] == "elbow-nonlinear"])}
-    verdicts = dict({k: v for k, v in old.get("verdicts", {}).items() if k == "before"}, **{args.label: groups})
+    verdicts = dict(old.get("verdicts", {}), **{args.label: groups})       # earlier runs' rows kept
     lines = ["## The trial verdict on limbstiff's own simulator (`benchmarks/own_verdicts.py`)", "",
              f"The scenarios of `accuracy.py`, {args.duration:g} s, seeds {100}–{99 + args.seeds}, m and b identified, "
              f"Kalman estimator; {len(rows)} trials in {wall / 60:.1f} min. Machine: {machine()}. "

@@ -4,7 +4,8 @@ Shared by ``reflex_study.py`` (the gated reflex, an independent generator) and
 ``own_verdicts.py`` (limbstiff's own simulator, clean trials: the false alarms and the bands'
 width). One row per analysis (:func:`verdict_fields`); a summary per group of rows
 (:func:`summarise`): the share said ``ok``; among those, the course band's coverage of the truth
-(pooled informed samples after 2 s) and the ``median_stiffness`` interval's (trials), each with a
+(pooled informed samples after 2 s) and the ``median_stiffness`` interval's (trials: the true
+course's median over the figure's own samples, the informed ones from the start), each with a
 95 % Wilson interval; the median error; and how often the stiffness was said to depend on the angle.
 
 The course's samples are strongly correlated in time: a Wilson interval over pooled samples is
@@ -37,8 +38,7 @@ def verdict_fields(result, truth: float | None = None) -> dict:
     err = result.reference_error() or {}
     median, _, _ = result.informed_stiffness()
     if truth is None:
-        use = result.reference_samples()
-        truth = float(np.median(result.reference[use])) if np.any(use) else float("nan")
+        truth = _true_median(result)
     obs = result.observable
     centre = float(np.median(result.stiffness[obs])) if np.any(obs) else float("nan")
     width = float(np.median((result.stiffness_hi - result.stiffness_lo)[obs])) / abs(centre) if np.any(obs) else None
@@ -50,6 +50,19 @@ def verdict_fields(result, truth: float | None = None) -> dict:
                 band_width=width, reasons=[c.message for c in failed],
                 angle_property=any(c.message.startswith(ANGLE_PROPERTY) for c in angle),
                 angle_failed=bool(angle))
+
+
+def _true_median(result) -> float:
+    """The true course's median over the samples the ``median_stiffness`` figure is taken over
+    (what its interval claims to hold: :func:`accuracy.trial_level_truth`, as
+    ``calibration_independent.py`` and ``identify.py`` compare it); without trial-level figures,
+    over the reference samples."""
+    from accuracy import trial_level_truth
+    pairs = None if result.trial.stiffness_true is None else trial_level_truth(result)
+    if pairs is not None:
+        return pairs[0][1]
+    use = result.reference_samples()
+    return float(np.median(result.reference[use])) if np.any(use) else float("nan")
 
 
 def _share(k: int, n: int) -> dict:
