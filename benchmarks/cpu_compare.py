@@ -1,13 +1,14 @@
 """CPU time of one ``analyze`` of a 60 s simulated elbow, this tree against an earlier revision.
 
-    python benchmarks/cpu_compare.py REVISION [--rounds 3] [--runs 3]
+    python benchmarks/cpu_compare.py REVISION [--rounds 3] [--runs 3] [--section NAME]
 
 The revision is checked out into a temporary git worktree; each round runs one process per tree,
 alternating (the machine is shared), each process analysing the trial once to warm up and then
 ``--runs`` times. Reported: the median CPU time (``time.process_time``: every thread of the
-process) and wall time per analysis of each tree, and their ratio. Numbers are printed, not
-written to RESULTS.md: it compares a change with what came before it (issue 33: with BLAS held
-to one thread the analysis's CPU time fell and its wall time did not grow).
+process) and wall time per analysis of each tree, and their ratio. Numbers are printed; with
+``--section`` they are also written to that section of RESULTS.md (issue 45 asks for its
+figure against 657199d as a committed result). It compares a change with what came before it
+(issue 33: with BLAS held to one thread the analysis's CPU time fell and its wall time did not grow).
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from _results import machine, update_section  # noqa: E402
 ONE_TREE = """
 import json, sys, time
 from limbstiff.analysis import analyze
@@ -51,6 +54,7 @@ def main(argv=None) -> int:
     parser.add_argument("revision")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--section", help="also write the figures to this section of RESULTS.md")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         before = Path(tmp) / "before"
@@ -65,12 +69,25 @@ def main(argv=None) -> int:
             subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(before)], check=True)
     cpu = {k: statistics.median(c for c, _ in v) for k, v in times.items()}
     wall = {k: statistics.median(w for _, w in v) for k, v in times.items()}
-    print(f"analysis of a 60 s elbow, median of {args.rounds * args.runs} runs each:")
-    for key in ("before", "after"):
-        print(f"  {key:6s} ({args.revision if key == 'before' else 'this tree'}): CPU {cpu[key]:.2f} s, "
-              f"wall {wall[key]:.2f} s")
-    print(f"  after ÷ before: CPU {cpu['after'] / cpu['before']:.2f}, wall {wall['after'] / wall['before']:.2f}")
+    text = _text(args, cpu, wall)
+    print(text)
+    if args.section:
+        update_section(args.section, text)
     return 0
+
+
+def _text(args, cpu: dict, wall: dict) -> str:
+    """The figures as a RESULTS.md section."""
+    head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                          text=True).stdout.strip()
+    lines = [f"## CPU of a 60 s analysis against {args.revision} (`benchmarks/cpu_compare.py`)", "",
+             f"Machine: {machine()}. One `analyze` of a 60 s simulated elbow (`protocols/elbow-lab.toml`, seed 0), "
+             f"median of {args.rounds * args.runs} runs per tree, the trees' processes alternating.", "",
+             "| tree | CPU | wall |", "|---|---|---|"]
+    for key, name in (("before", args.revision), ("after", f"this tree ({head})")):
+        lines.append(f"| {name} | {cpu[key]:.2f} s | {wall[key]:.2f} s |")
+    lines.append(f"| after ÷ before | {cpu['after'] / cpu['before']:.2f} | {wall['after'] / wall['before']:.2f} |")
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":

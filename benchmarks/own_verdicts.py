@@ -93,7 +93,8 @@ def main(argv=None) -> str:
              f"The scenarios of `accuracy.py`, {args.duration:g} s, seeds {100}–{99 + args.seeds}, m and b identified, "
              f"Kalman estimator; {len(rows)} trials in {wall / 60:.1f} min. Machine: {machine()}. "
              "`elbow-nonlinear` has an angle-dependent stiffness: its angle reason is a detection; on the others "
-             "any failed check is a false alarm.", "", *summary_table(verdicts), "", *width_rows(rows, before)]
+             "any failed check is a false alarm.", "", *summary_table(verdicts, truth="the true median"), "",
+             *width_rows(rows, before)]
     text = "\n".join(lines)
     update_section("own-verdicts", text)
     path.write_text(json.dumps(dict(settings=vars(args), runs=rows, verdicts=verdicts, before_runs=before),

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Callable, Sequence
 from .discovery import NothingToDo, discover, output_names, writable_folder
 from .outcome import BatchReport
 from .overwrite import clear_or_refuse, refuse_other_outputs, source_sha256
-from .runner import BatchJob, TrialOutcome, cut_short, interrupted, run_jobs, run_one
+from .runner import BatchJob, TrialOutcome, cut_short, interrupted, interrupts_deferred, run_jobs, run_one
 from .table import FolderTable, TrialRow, mixed_kinds, up_to_date
 from ..errors import LimbstiffError
 from ..protocol import ENSEMBLE_MARKER, Protocol
@@ -188,10 +188,11 @@ def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, e
         if progress:
             progress(outcome, done, total)
 
-    if executor is None and jobs > 1 and len(jobs_list) > 1:
+    if executor is None:
         # local workers are forked from this process: what it has imported they inherit, instead of
-        # each importing the analysis (scipy, numba's kernels) again
-        from .. import analysis  # noqa: F401
+        # each importing the analysis (scipy, numba's kernels) again; a Ctrl-C meanwhile acts after it
+        with interrupts_deferred():
+            from .. import analysis  # noqa: F401
     try:
         outcomes = run_jobs(jobs_list, functools.partial(_run_trial, work=work),
                             n_jobs=jobs, executor=executor, progress=record)

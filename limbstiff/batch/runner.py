@@ -8,13 +8,15 @@ outcome the row its work returned (:class:`~limbstiff.batch.table.TrialRow` for 
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import signal
+import threading
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Generic, Sequence, TypeVar
+from typing import Callable, Generic, Iterator, Sequence, TypeVar
 
 from ..errors import LimbstiffError, NotATrial
 
@@ -153,6 +155,37 @@ def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome
             for fut in futures:
                 fut.cancel()
     return [o for o in outcomes if o is not None]
+
+
+@contextlib.contextmanager
+def interrupts_deferred() -> Iterator[None]:
+    """Ctrl-C (SIGINT) and a kill (SIGTERM) wait until the end of the block, then act as their
+    handlers would have.
+
+    For importing the analysis (numpy, scipy, numba: a second or more): an interrupt raised inside
+    an import can be lost there (a library that catches every exception) or, once it is caught,
+    still end the process by SIGINT instead of the command's exit status 130 (CPython remembers an
+    interrupt raised inside code an extension module runs at import). Noted instead of raised, it
+    acts after the import, where the batch handles it. (Blocking the signals would not do: the
+    threads numpy's BLAS starts would take them.) Main thread only; elsewhere the block runs as it is.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted: list[int] = []
+    before = {signum: signal.signal(signum, lambda number, frame: noted.append(number))
+              for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for signum, handler in before.items():
+            signal.signal(signum, handler)
+    if noted:                                   # the block finished: the first interrupt acts now
+        handler = before[noted[0]]
+        if callable(handler):
+            handler(noted[0], None)
+        elif handler == signal.SIG_DFL:
+            os.kill(os.getpid(), noted[0])
 
 
 def _quiet_on_interrupt() -> None:
