@@ -51,7 +51,8 @@ def evaluate(result, skip=2.0):
 
 
 def trial_level_truth(result):
-    """Each trial-level interval with the same figure of the true course (at the samples the
+    """Each trial-level interval with the same figure of the true course (the result's reference: the
+    trial's true stiffness unless another was given; at the samples the
     analysis computes them over: figure_draws.figure_samples_of), as (interval, truth) pairs in the
     order of trial_level.FIGURES; None when the trial has no trial-level intervals."""
     from limbstiff.figure_draws import figure_samples_of
@@ -61,7 +62,7 @@ def trial_level_truth(result):
         return None
     samples = figure_samples_of(result.filtered, result.observable)
     informed = samples.informed
-    truth = figures_of(result.trial.stiffness_true[samples.index][informed][None, :], samples.torque[informed])[0]
+    truth = figures_of(result.reference[samples.index][informed][None, :], samples.torque[informed])[0]
     return [(getattr(level, name), float(t)) for name, t in zip(FIGURES, truth)]
 
 

@@ -368,7 +368,7 @@ def main(argv=None) -> str:
     parser.add_argument("--duration", type=float, help="trial length, s (default 60)")
     parser.add_argument("--direction", type=int, choices=(1, -1), default=1)
     parser.add_argument("--label", default="after",
-                        help="name of this run's figures in the JSON's `verdicts` (a 'before' is kept for later runs)")
+                        help="name of this run's figures in the JSON's `verdicts` (earlier labels are kept)")
     parser.add_argument("--quick", action="store_true",
                         help="smoke test: 1 seed, gains 0,6,10, 20 s (unless given explicitly)")
     args = parser.parse_args(argv)
@@ -380,7 +380,8 @@ def main(argv=None) -> str:
     rows, ls_rows, wall, available = run(gains, args.seeds, args.jobs, args.duration, args.direction)
     path = HERE / "reflex_study.json"
     old = json.loads(path.read_text(encoding="utf-8")) if path.exists() else {}
-    stored = {k: v for k, v in old.get("verdicts", {}).items() if k == "before" and not args.quick}
+    # every earlier labelled run is kept (a run of the same label replaces it)
+    stored = {} if args.quick else {k: v for k, v in old.get("verdicts", {}).items() if k != args.label}
     text = report(rows, ls_rows, wall, available, args, stored)
     verdicts = dict(stored, **{args.label: summaries(rows)})
     if args.quick:

@@ -58,7 +58,9 @@ def _true_median(result) -> float:
     ``calibration_independent.py`` and ``identify.py`` compare it); without trial-level figures,
     over the reference samples."""
     from accuracy import trial_level_truth
-    pairs = None if result.trial.stiffness_true is None else trial_level_truth(result)
+    if result.reference is None:
+        return float("nan")
+    pairs = trial_level_truth(result)
     if pairs is not None:
         return pairs[0][1]
     use = result.reference_samples()

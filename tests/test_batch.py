@@ -408,7 +408,7 @@ def test_a_trial_ctrl_c_cut_short_is_no_row_even_before_the_batch_learns_of_it(t
     assert list(table["trial"]) == ["bad"] and list(table["status"]) == ["failed"]
 
 
-@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signal masks")
+@pytest.mark.skipif(sys.platform == "win32", reason="a POSIX process signalling itself")
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupt_during_the_analysis_import_acts_after_it_not_inside_it(signum):
     """Ctrl-C landing inside the batch's import of the analysis was lost there or ended the process
@@ -431,3 +431,22 @@ def test_an_interrupt_during_the_analysis_import_acts_after_it_not_inside_it(sig
         assert done.stdout.split() == ["inside", "after"] and done.returncode == 0, done.stderr
     else:
         assert done.stdout.split() == ["inside"] and done.returncode == -signal.SIGTERM
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="a POSIX process signalling itself")
+def test_an_interrupt_noted_in_a_block_that_fails_comes_first_and_handlers_are_put_back():
+    """The import failing after a Ctrl-C: KeyboardInterrupt (the error as its context), and the
+    handler the block found is back afterwards (a second Ctrl-C acts at once)."""
+    code = textwrap.dedent("""
+        import os, signal
+        from limbstiff.batch.runner import interrupts_deferred
+        try:
+            with interrupts_deferred():
+                os.kill(os.getpid(), signal.SIGINT)
+                raise ValueError("import failed")
+        except KeyboardInterrupt as exc:
+            print(type(exc.__context__).__name__, flush=True)
+        print(signal.getsignal(signal.SIGINT) is signal.default_int_handler, flush=True)
+    """)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.stdout.split() == ["ValueError", "True"], done.stderr

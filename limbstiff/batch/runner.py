@@ -160,32 +160,49 @@ def run_jobs(jobs: Sequence[BatchJob], worker: Callable[[BatchJob], TrialOutcome
 @contextlib.contextmanager
 def interrupts_deferred() -> Iterator[None]:
     """Ctrl-C (SIGINT) and a kill (SIGTERM) wait until the end of the block, then act as their
-    handlers would have.
+    handlers would have (also when the block raised: the interrupt then comes first).
 
     For importing the analysis (numpy, scipy, numba: a second or more): an interrupt raised inside
     an import can be lost there (a library that catches every exception) or, once it is caught,
     still end the process by SIGINT instead of the command's exit status 130 (CPython remembers an
     interrupt raised inside code an extension module runs at import). Noted instead of raised, it
-    acts after the import, where the batch handles it. (Blocking the signals would not do: the
-    threads numpy's BLAS starts would take them.) Main thread only; elsewhere the block runs as it is.
+    acts after the import, where the batch handles it. (Blocking the signals in this thread would
+    not do: the threads numpy's BLAS started before take them.) Main thread only, and only signals
+    whose handler Python set; elsewhere the block runs as it is.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    before = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    before = {signum: handler for signum, handler in before.items() if handler is not None}
     noted: list[int] = []
-    before = {signum: signal.signal(signum, lambda number, frame: noted.append(number))
-              for signum in (signal.SIGINT, signal.SIGTERM)}
+    is_open = [True]
+
+    def note(signum, frame):
+        if is_open[0]:
+            noted.append(signum)
+        else:                                   # after the block, before its handler is back
+            _act_on(signum, before[signum], frame)
+
+    for signum in before:
+        signal.signal(signum, note)
     try:
         yield
     finally:
+        is_open[0] = False
         for signum, handler in before.items():
             signal.signal(signum, handler)
-    if noted:                                   # the block finished: the first interrupt acts now
-        handler = before[noted[0]]
-        if callable(handler):
-            handler(noted[0], None)
-        elif handler == signal.SIG_DFL:
-            os.kill(os.getpid(), noted[0])
+        if noted:
+            _act_on(noted[0], before[noted[0]], None)
+
+
+def _act_on(signum: int, handler, frame) -> None:
+    """What ``handler`` (as :func:`signal.getsignal` gives it) does with ``signum``."""
+    if callable(handler):
+        handler(signum, frame)
+    elif handler == signal.SIG_DFL:
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
 
 
 def _quiet_on_interrupt() -> None:
