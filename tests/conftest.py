@@ -1,6 +1,7 @@
 """Shared fixtures: small synthetic trials written as files, and the real data's location."""
 
 import os
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -47,3 +48,17 @@ def trial_file(tmp_path):
         write_trial(multisine_trial(name, **kw), path)
         return path
     return make
+
+
+@pytest.fixture
+def terminal_interrupts():
+    """Ctrl-C reaches the processes the test starts as it does from a terminal. A shell's background
+    job (``pytest … &``, ``nohup``) inherits SIGINT ignored, and every Python it starts then ignores
+    Ctrl-C too; with a handler in this process instead, a started process gets the default (a
+    handler is reset at exec, an ignored signal is not)."""
+    before = signal.getsignal(signal.SIGINT)
+    if before is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    if before is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, before)

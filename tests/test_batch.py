@@ -409,6 +409,7 @@ def test_a_trial_ctrl_c_cut_short_is_no_row_even_before_the_batch_learns_of_it(t
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="a POSIX process signalling itself")
+@pytest.mark.usefixtures("terminal_interrupts")
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupt_during_the_analysis_import_acts_after_it_not_inside_it(signum):
     """Ctrl-C landing inside the batch's import of the analysis was lost there or ended the process
@@ -434,6 +435,7 @@ def test_an_interrupt_during_the_analysis_import_acts_after_it_not_inside_it(sig
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="a POSIX process signalling itself")
+@pytest.mark.usefixtures("terminal_interrupts")
 def test_an_interrupt_noted_in_a_block_that_fails_comes_first_and_handlers_are_put_back():
     """The import failing after a Ctrl-C: KeyboardInterrupt (the error as its context), and the
     handler the block found is back afterwards (a second Ctrl-C acts at once)."""

@@ -133,6 +133,7 @@ def test_a_dask_run_beside_a_local_one_into_one_out_both_in_the_table(trial_file
 
 
 @pytest.mark.slow
+@pytest.mark.usefixtures("terminal_interrupts")
 @pytest.mark.parametrize("after", [0, 1, 2])
 def test_ctrl_c_leaves_the_table_listing_exactly_the_complete_trials(trial_file, tmp_path, after):
     folder = tmp_path / "trials"
