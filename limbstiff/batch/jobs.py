@@ -190,7 +190,8 @@ def _run_jobs(jobs_list: list[BatchJob[JobOptions]], work, *, out: Path, jobs, e
 
     if executor is None:
         # local workers are forked from this process: what it has imported they inherit, instead of
-        # each importing the analysis (scipy, numba's kernels) again; a Ctrl-C meanwhile acts after it
+        # each importing the analysis (scipy, numba's kernels) again (a serial batch imports it at its
+        # first trial anyway); a Ctrl-C meanwhile acts after it
         with interrupts_deferred():
             from .. import analysis  # noqa: F401
     try:

@@ -176,10 +176,10 @@ def interrupts_deferred() -> Iterator[None]:
     before = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
     before = {signum: handler for signum, handler in before.items() if handler is not None}
     noted: list[int] = []
-    is_open = [True]
+    is_open = True
 
     def note(signum, frame):
-        if is_open[0]:
+        if is_open:
             noted.append(signum)
         else:                                   # after the block, before its handler is back
             _act_on(signum, before[signum], frame)
@@ -189,7 +189,7 @@ def interrupts_deferred() -> Iterator[None]:
     try:
         yield
     finally:
-        is_open[0] = False
+        is_open = False
         for signum, handler in before.items():
             signal.signal(signum, handler)
         if noted:
