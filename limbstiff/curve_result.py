@@ -192,8 +192,7 @@ def curve_analysis(prepared: ScheduleInput, terms: ScheduleTerms, estimate, iden
     checks = (heldout_check(score, noun=noun), disagree_check(errors, noun=noun, first_s=starts), motion_check(curve))
     # the cross-check judges the curve's own band; the band published also holds the misfit it measures
     band_checks = (least_squares_check(curve, ls), negative_check(curve, ls))
-    weights = (Coefficients.of(ident).values_of(terms.weight_names) if ident is not None and terms.weight_names
-               else np.zeros(terms.basis.size))
+    weights = terms.weights(None if ident is None else Coefficients.of(ident))
     interpolation = interpolation_error(terms.basis, weights, curve.edges)
     return CurveAnalysis(curve.widened(misfit_share(curve, ls), interpolation), terms.resolution, prepared.to_dict(),
                          checks, prepared.u, ls, band_checks)

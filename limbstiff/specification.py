@@ -71,5 +71,4 @@ def stiffness_course(walk: Estimate, spec: ModelSpecification, coefficients: Coe
     terms = spec.curve_terms
     if terms is None:
         return walk
-    names = spec.curve.weight_names
-    return scheduled.with_curve(walk, spec.curve, coefficients.values_of(names), rows=coefficients.positions(names))
+    return scheduled.with_curve(walk, spec.curve, coefficients)

@@ -95,7 +95,7 @@ class ScheduleCurve:
                        + extra ** 2)
         return dataclasses.replace(self, lo=np.fmin(self.lo, self.stiffness - half),
                                    hi=np.fmax(self.hi, self.stiffness + half), misfit=float(misfit),
-                                   interpolation=extra)
+                                   interpolation=None if interpolation is None else extra)
 
     @property
     def count_name(self) -> str:

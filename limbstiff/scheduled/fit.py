@@ -60,6 +60,14 @@ class ScheduleTerms:
         gains of effects modulated over the cycle)."""
         return () if self.terms is None else self.terms.names[:self.basis.size]
 
+    def weights(self, coefficients) -> np.ndarray:
+        """The curve's weights, the values of :attr:`weight_names` among ``coefficients``
+        (:class:`~limbstiff.coefficients.Coefficients`), shape (J − 1,), N·m/rad; zeros where no
+        curve was identified (no terms, or no coefficients)."""
+        if coefficients is None or not self.weight_names:
+            return np.zeros(self.basis.size)
+        return coefficients.values_of(self.weight_names)
+
 
 def candidates(against: str, u: np.ndarray, *, n_steps: int, unit: str) -> dict[int, StiffnessBasis]:
     """The resolutions worth trying (:data:`~.basis.PHASE_KNOTS` or :data:`~.basis.SCHEDULE_KNOTS`),
@@ -119,15 +127,15 @@ def schedule_terms(filtered: Filtered, against: str, u: np.ndarray, unit_of_samp
     return ScheduleTerms(basis, resolution, u, terms)
 
 
-def with_curve(estimate: Estimate, schedule: ScheduleTerms, weights: np.ndarray, *, rows: np.ndarray) -> Estimate:
-    """The estimate of the walk with the curve at ``weights`` (the values of
-    :attr:`ScheduleTerms.weight_names`, shape (J − 1,)) added back, and its response to each
-    (``rows`` of the sensitivity: where those names stand among the model's coefficients)."""
+def with_curve(estimate: Estimate, schedule: ScheduleTerms, coefficients) -> Estimate:
+    """The estimate of the walk with the curve at its weights among ``coefficients``
+    (:meth:`ScheduleTerms.weights`) added back, and its response to each (the sensitivity's rows
+    where :attr:`ScheduleTerms.weight_names` stand among the model's coefficients)."""
     if schedule.terms is None:
         return estimate
     design = schedule.basis.design(schedule.u)
     design = np.where(np.isfinite(design), design, 0.0)
     sens = estimate.sensitivity.copy()
-    sens[np.asarray(rows, dtype=int)] += design
-    return dataclasses.replace(estimate, stiffness=estimate.stiffness + np.asarray(weights) @ design,
+    sens[coefficients.positions(schedule.weight_names)] += design
+    return dataclasses.replace(estimate, stiffness=estimate.stiffness + schedule.weights(coefficients) @ design,
                                sensitivity=sens)
